@@ -20,6 +20,7 @@
 pub mod closure;
 pub mod error;
 pub mod mesh;
+pub mod neighbors;
 pub mod obj;
 pub mod topology;
 
