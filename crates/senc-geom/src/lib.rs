@@ -22,6 +22,7 @@ pub mod error;
 pub mod mesh;
 pub mod neighbors;
 pub mod obj;
+pub mod shapes;
 pub mod topology;
 
 pub use closure::{close_holes, Closure, HoleSelection};
