@@ -18,10 +18,13 @@
 //! ```
 
 pub mod closure;
+pub mod cut;
 pub mod error;
+pub mod intersect;
 pub mod mesh;
 pub mod neighbors;
 pub mod obj;
+pub mod predicates;
 pub mod shapes;
 pub mod topology;
 

@@ -1,0 +1,335 @@
+//! Self-intersection of a triangle mesh: a BVH broad phase over triangle boxes (parry's
+//! `Bvh`, self traversal, refit when only positions change) and an exact narrow phase of
+//! edge-versus-face crossings decided by [`crate::predicates::orient3d_sos`].
+//!
+//! # Behavior
+//! - Triangles sharing an edge are skipped (in the perturbed general position they meet only
+//!   along that edge).
+//! - Triangles sharing one vertex `s` can only cross through an edge opposite `s`; such a
+//!   crossing gives one point and a segment ending at the **loop vertex** `s`.
+//! - Other pairs give zero or two crossings, the two ends of one segment.
+//! - Each crossing is an [`IntersectionPoint`] `(edge, face)`, reported once although both
+//!   faces of the edge find it; it is the shared end of their two segments.
+//! - Output is sorted (points by `(edge, face)`, segments by face pair) and so does not
+//!   depend on the thread count or on whether the BVH was refit or rebuilt.
+
+use std::cmp::Ordering;
+
+use parry3d_f64::bounding_volume::Aabb;
+use parry3d_f64::math::Vector as PVec;
+use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy, BvhWorkspace};
+use rayon::prelude::*;
+
+use crate::mesh::TriMesh;
+use crate::predicates::{orient3d_sos, orient3d_value};
+use crate::Vec3;
+
+/// A crossing of mesh edge `edge` through the interior of face `face`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IntersectionPoint {
+    /// Edge index (see [`crate::Topology::edges`]).
+    pub edge: u32,
+    /// Face index.
+    pub face: u32,
+    /// Parameter along the edge from `edges[edge][0]` (t = 0) to `edges[edge][1]` (t = 1).
+    pub t: f64,
+    /// Barycentric coordinates in `face`, weights of `faces[face][0..3]`.
+    pub bary: [f64; 3],
+}
+
+/// One end of an intersection segment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum SegmentEnd {
+    /// An intersection point (index into [`SelfIntersections::points`]).
+    Point(u32),
+    /// A loop vertex: the vertex shared by the two faces.
+    LoopVertex(u32),
+}
+
+/// The intersection of two faces: a segment lying on both.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Segment {
+    /// The two faces, smaller index first.
+    pub faces: [u32; 2],
+    /// Its two ends. A loop vertex, if any, comes first.
+    pub ends: [SegmentEnd; 2],
+}
+
+/// All crossings of a mesh with itself.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SelfIntersections {
+    /// Crossing points, sorted by `(edge, face)`.
+    pub points: Vec<IntersectionPoint>,
+    /// Face-pair segments, sorted by `faces`.
+    pub segments: Vec<Segment>,
+    /// Candidate pairs the broad phase passed to the narrow phase.
+    pub n_candidate_pairs: usize,
+    /// Pairs whose crossing count was not 0 or 2 (0 expected: exact predicates make this
+    /// impossible; counted rather than asserted).
+    pub n_inconsistent_pairs: usize,
+}
+
+impl SelfIntersections {
+    /// Sorted, deduplicated intersecting face pairs.
+    pub fn face_pairs(&self) -> Vec<[u32; 2]> {
+        let mut v: Vec<[u32; 2]> = self.segments.iter().map(|s| s.faces).collect();
+        v.dedup();
+        v
+    }
+
+    /// 3D position of point `i` on `mesh` (from its edge parameter).
+    pub fn point_position(&self, mesh: &TriMesh, i: usize) -> Vec3 {
+        let p = &self.points[i];
+        let [a, b] = mesh.topology().edges()[p.edge as usize];
+        let (a, b) = (mesh.positions()[a as usize], mesh.positions()[b as usize]);
+        a + (b - a) * p.t
+    }
+}
+
+/// Reusable broad phase: keeps the BVH between calls and refits it when positions change.
+pub struct SelfIntersector {
+    bvh: Bvh,
+    workspace: BvhWorkspace,
+    n_faces: usize,
+    pairs: Vec<[u32; 2]>,
+}
+
+impl std::fmt::Debug for SelfIntersector {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SelfIntersector").field("n_faces", &self.n_faces).finish()
+    }
+}
+
+fn face_aabb(mesh: &TriMesh, f: usize) -> Aabb {
+    let [a, b, c] = mesh.triangle(f);
+    let lo = a.inf(&b).inf(&c);
+    let hi = a.sup(&b).sup(&c);
+    Aabb::new(PVec::new(lo.x, lo.y, lo.z), PVec::new(hi.x, hi.y, hi.z))
+}
+
+impl SelfIntersector {
+    /// Builds the BVH over `mesh`'s faces.
+    pub fn new(mesh: &TriMesh) -> Self {
+        let leaves: Vec<Aabb> = (0..mesh.n_faces()).map(|f| face_aabb(mesh, f)).collect();
+        Self {
+            bvh: Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves),
+            workspace: BvhWorkspace::default(),
+            n_faces: mesh.n_faces(),
+            pairs: Vec::new(),
+        }
+    }
+
+    /// Crossings of `mesh` with itself. If `mesh` has the faces this intersector was built
+    /// for, the BVH is refit to the new positions; otherwise it is rebuilt.
+    pub fn find(&mut self, mesh: &TriMesh) -> SelfIntersections {
+        if mesh.n_faces() != self.n_faces {
+            *self = Self::new(mesh);
+        } else {
+            for f in 0..mesh.n_faces() {
+                self.bvh.insert_or_update_partially(face_aabb(mesh, f), f as u32, 0.0);
+            }
+            self.bvh.refit(&mut self.workspace);
+        }
+        self.pairs.clear();
+        let pairs = &mut self.pairs;
+        let faces = mesh.faces();
+        self.bvh.traverse_bvtt_single_tree::<false>(&mut self.workspace, &mut |a, b| {
+            if a != b && !shares_edge(faces[a as usize], faces[b as usize]) {
+                pairs.push([a.min(b), a.max(b)]);
+            }
+        });
+        narrow_phase(mesh, &self.pairs)
+    }
+}
+
+/// One-shot self-intersection (builds a BVH; use [`SelfIntersector`] across frames).
+pub fn self_intersections(mesh: &TriMesh) -> SelfIntersections {
+    SelfIntersector::new(mesh).find(mesh)
+}
+
+fn shares_edge(f: [u32; 3], g: [u32; 3]) -> bool {
+    f.iter().filter(|v| g.contains(v)).count() >= 2
+}
+
+/// A crossing found by one face pair: (edge as sorted vertex pair, face).
+#[derive(Clone, Copy)]
+struct Crossing {
+    edge: [u32; 2],
+    face: u32,
+}
+
+struct PairResult {
+    faces: [u32; 2],
+    loop_vertex: Option<u32>,
+    crossings: [Option<Crossing>; 2],
+    inconsistent: bool,
+}
+
+fn narrow_phase(mesh: &TriMesh, pairs: &[[u32; 2]]) -> SelfIntersections {
+    let results: Vec<PairResult> =
+        pairs.par_iter().with_min_len(256).filter_map(|&[f, g]| test_pair(mesh, f, g)).collect();
+    let topo = mesh.topology();
+    let mut keys: Vec<(u32, u32)> = Vec::with_capacity(results.len() * 2);
+    for r in &results {
+        for c in r.crossings.iter().flatten() {
+            let e = topo.find_edge(c.edge[0], c.edge[1]).expect("crossing edge belongs to the mesh");
+            keys.push((e, c.face));
+        }
+    }
+    keys.sort_unstable();
+    keys.dedup();
+    let points: Vec<IntersectionPoint> = keys.iter().map(|&(e, f)| crossing_point(mesh, e, f)).collect();
+    let point_index = |c: &Crossing| -> u32 {
+        let e = topo.find_edge(c.edge[0], c.edge[1]).expect("edge exists");
+        keys.binary_search(&(e, c.face)).expect("point was collected") as u32
+    };
+    let mut segments = Vec::with_capacity(results.len());
+    let mut n_inconsistent = 0;
+    for r in &results {
+        if r.inconsistent {
+            n_inconsistent += 1;
+            continue;
+        }
+        let ends = match (r.loop_vertex, r.crossings) {
+            (Some(s), [Some(c), None]) => [SegmentEnd::LoopVertex(s), SegmentEnd::Point(point_index(&c))],
+            (None, [Some(c0), Some(c1)]) => {
+                let (a, b) = (point_index(&c0), point_index(&c1));
+                [SegmentEnd::Point(a.min(b)), SegmentEnd::Point(a.max(b))]
+            }
+            _ => continue,
+        };
+        segments.push(Segment { faces: r.faces, ends });
+    }
+    segments.sort_unstable_by_key(|s| (s.faces, s.ends));
+    SelfIntersections { points, segments, n_candidate_pairs: pairs.len(), n_inconsistent_pairs: n_inconsistent }
+}
+
+fn sos(mesh: &TriMesh, idx: [u32; 4]) -> Ordering {
+    orient3d_sos(idx.map(|i| mesh.positions()[i as usize]), idx)
+}
+
+/// Whether edge `{a, b}` crosses the interior of face `face` (no shared vertices).
+fn edge_crosses_face(mesh: &TriMesh, edge: [u32; 2], face: [u32; 3]) -> bool {
+    let [a, b] = edge;
+    let [p, q, r] = face;
+    let sa = sos(mesh, [p, q, r, a]);
+    let sb = sos(mesh, [p, q, r, b]);
+    if sa == sb {
+        return false;
+    }
+    let s1 = sos(mesh, [a, b, p, q]);
+    let s2 = sos(mesh, [a, b, q, r]);
+    s1 == s2 && s2 == sos(mesh, [a, b, r, p])
+}
+
+fn sorted(a: u32, b: u32) -> [u32; 2] {
+    [a.min(b), a.max(b)]
+}
+
+fn test_pair(mesh: &TriMesh, f: u32, g: u32) -> Option<PairResult> {
+    let fv = mesh.faces()[f as usize];
+    let gv = mesh.faces()[g as usize];
+    let shared: Vec<u32> = fv.iter().copied().filter(|v| gv.contains(v)).collect();
+    match shared.len() {
+        0 => {
+            // Early out: all of one triangle strictly on one side of the other's plane.
+            let side = |t: [u32; 3], v: u32| sos(mesh, [t[0], t[1], t[2], v]);
+            let sg = gv.map(|v| side(fv, v));
+            if sg[0] == sg[1] && sg[1] == sg[2] {
+                return None;
+            }
+            let sf = fv.map(|v| side(gv, v));
+            if sf[0] == sf[1] && sf[1] == sf[2] {
+                return None;
+            }
+            let mut found: [Option<Crossing>; 2] = [None, None];
+            let mut n = 0;
+            for (tri, other, other_id, signs) in [(fv, gv, g, sf), (gv, fv, f, sg)] {
+                for k in 0..3 {
+                    let (a, b) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
+                    // An edge can only cross if its ends are on opposite sides.
+                    if signs[(k + 1) % 3] == signs[(k + 2) % 3] {
+                        continue;
+                    }
+                    if edge_crosses_face(mesh, sorted(a, b), other) {
+                        if n < 2 {
+                            found[n] = Some(Crossing { edge: sorted(a, b), face: other_id });
+                        }
+                        n += 1;
+                    }
+                }
+            }
+            match n {
+                0 => None,
+                2 => Some(PairResult { faces: [f, g], loop_vertex: None, crossings: found, inconsistent: false }),
+                _ => Some(PairResult { faces: [f, g], loop_vertex: None, crossings: found, inconsistent: true }),
+            }
+        }
+        1 => {
+            let s = shared[0];
+            let opposite = |t: [u32; 3]| {
+                let k = t.iter().position(|&v| v == s).unwrap_or(0);
+                sorted(t[(k + 1) % 3], t[(k + 2) % 3])
+            };
+            let mut found: [Option<Crossing>; 2] = [None, None];
+            let mut n = 0;
+            for (tri, other, other_id) in [(fv, gv, g), (gv, fv, f)] {
+                let e = opposite(tri);
+                if edge_crosses_face(mesh, e, other) {
+                    if n < 2 {
+                        found[n] = Some(Crossing { edge: e, face: other_id });
+                    }
+                    n += 1;
+                }
+            }
+            match n {
+                0 => None,
+                1 => Some(PairResult { faces: [f, g], loop_vertex: Some(s), crossings: found, inconsistent: false }),
+                _ => Some(PairResult { faces: [f, g], loop_vertex: Some(s), crossings: found, inconsistent: true }),
+            }
+        }
+        _ => None,
+    }
+}
+
+/// Float position data of crossing `(e, f)`: edge parameter and face barycentrics, clamped
+/// to their valid ranges (the exact predicates decided that the crossing exists).
+fn crossing_point(mesh: &TriMesh, e: u32, f: u32) -> IntersectionPoint {
+    let [ia, ib] = mesh.topology().edges()[e as usize];
+    let pos = mesh.positions();
+    let (a, b) = (pos[ia as usize], pos[ib as usize]);
+    let [p, q, r] = mesh.triangle(f as usize);
+    let t = edge_parameter(a, b, p, q, r);
+    let x = a + (b - a) * t;
+    IntersectionPoint { edge: e, face: f, t, bary: barycentric(x, p, q, r) }
+}
+
+/// Parameter of the crossing of segment `a → b` with the plane of `(p, q, r)`, in `[0, 1]`.
+pub fn edge_parameter(a: Vec3, b: Vec3, p: Vec3, q: Vec3, r: Vec3) -> f64 {
+    let oa = orient3d_value(p, q, r, a);
+    let ob = orient3d_value(p, q, r, b);
+    let denom = oa - ob;
+    if denom == 0.0 || !denom.is_finite() {
+        return 0.5;
+    }
+    (oa / denom).clamp(0.0, 1.0)
+}
+
+/// Barycentric coordinates of `x` (projected on the plane) in `(p, q, r)`, clamped to be
+/// non-negative and renormalised; the centroid for a degenerate triangle.
+pub fn barycentric(x: Vec3, p: Vec3, q: Vec3, r: Vec3) -> [f64; 3] {
+    let n = (q - p).cross(&(r - p));
+    let nn = n.norm_squared();
+    if nn == 0.0 || !nn.is_finite() {
+        return [1.0 / 3.0; 3];
+    }
+    let b0 = ((q - x).cross(&(r - x))).dot(&n) / nn;
+    let b1 = ((r - x).cross(&(p - x))).dot(&n) / nn;
+    let b = [b0.max(0.0), b1.max(0.0), (1.0 - b0 - b1).max(0.0)];
+    let s = b[0] + b[1] + b[2];
+    if s > 0.0 {
+        b.map(|v| v / s)
+    } else {
+        [1.0 / 3.0; 3]
+    }
+}

@@ -1,0 +1,179 @@
+//! Signed volumes and areas of cut-mesh pieces, and the chain rule from piece nodes back to
+//! mesh vertices (exact or with SENC's fixed barycentric weights).
+
+use senc_geom::cut::{CutMesh, EdgeTag};
+use senc_geom::intersect::SelfIntersections;
+use senc_geom::{TriMesh, Vec3};
+
+use crate::GradientMode;
+
+/// Positions of every node of a cut mesh (vertices, then two nodes per intersection point).
+///
+/// In [`GradientMode::Exact`] both nodes of a point sit at the exact crossing
+/// `X = a + t (b - a)`; with [`GradientMode::FixedBarycentric`] the edge node is
+/// `(1 - t) a + t b` and the face node `Σ bary_k p_k` with `t` and `bary` as recorded (equal
+/// to `X` up to rounding at the configuration they were computed in).
+pub fn node_positions(mesh: &TriMesh, inter: &SelfIntersections, mode: GradientMode, out: &mut Vec<Vec3>) {
+    out.clear();
+    out.extend_from_slice(mesh.positions());
+    let pos = mesh.positions();
+    let edges = mesh.topology().edges();
+    for p in &inter.points {
+        let [a, b] = edges[p.edge as usize];
+        let e = pos[a as usize] * (1.0 - p.t) + pos[b as usize] * p.t;
+        let f = match mode {
+            GradientMode::Exact => e,
+            GradientMode::FixedBarycentric => {
+                let fv = mesh.faces()[p.face as usize];
+                (0..3).map(|k| pos[fv[k] as usize] * p.bary[k]).sum()
+            }
+        };
+        out.push(e);
+        out.push(f);
+    }
+}
+
+/// `Σ p0 · (p1 × p2) / 6` over the fan of every cycle of fill id `id` (6 × signed volume of
+/// the cone from the origin, divided by 6).
+pub fn signed_volume(mesh: &TriMesh, cut: &CutMesh, nodes: &[Vec3], id: u32) -> f64 {
+    let mut v = 0.0;
+    for_each_fan_triangle(mesh, cut, id, |a, b, c| {
+        v += nodes[a as usize].dot(&nodes[b as usize].cross(&nodes[c as usize]))
+    });
+    v / 6.0
+}
+
+/// Adds `scale · ∂(signed volume of id)/∂node` into `grad`.
+pub fn add_volume_gradient(mesh: &TriMesh, cut: &CutMesh, nodes: &[Vec3], id: u32, scale: f64, grad: &mut [Vec3]) {
+    let s = scale / 6.0;
+    for_each_fan_triangle(mesh, cut, id, |a, b, c| {
+        let (pa, pb, pc) = (nodes[a as usize], nodes[b as usize], nodes[c as usize]);
+        grad[a as usize] += pb.cross(&pc) * s;
+        grad[b as usize] += pc.cross(&pa) * s;
+        grad[c as usize] += pa.cross(&pb) * s;
+    });
+}
+
+/// Vector area `½ Σ p_k × p_{k+1}` of fill id `id` (holes subtract).
+fn vector_area(mesh: &TriMesh, cut: &CutMesh, nodes: &[Vec3], id: u32) -> Vec3 {
+    let mut a = Vec3::zeros();
+    for_each_cycle(mesh, cut, id, |cycle| {
+        for k in 0..cycle.len() {
+            a += nodes[cycle[k] as usize].cross(&nodes[cycle[(k + 1) % cycle.len()] as usize]);
+        }
+    });
+    a * 0.5
+}
+
+/// Area of fill id `id`.
+pub fn area(mesh: &TriMesh, cut: &CutMesh, nodes: &[Vec3], id: u32) -> f64 {
+    vector_area(mesh, cut, nodes, id).norm()
+}
+
+/// Adds `scale · ∂(area of id)/∂node` into `grad`: `½ (p_{k+1} − p_{k−1}) × n̂` per corner.
+pub fn add_area_gradient(mesh: &TriMesh, cut: &CutMesh, nodes: &[Vec3], id: u32, scale: f64, grad: &mut [Vec3]) {
+    let va = vector_area(mesh, cut, nodes, id);
+    let norm = va.norm();
+    if norm == 0.0 || !norm.is_finite() {
+        return;
+    }
+    let n = va / norm;
+    for_each_cycle(mesh, cut, id, |cycle| {
+        let m = cycle.len();
+        for k in 0..m {
+            let next = nodes[cycle[(k + 1) % m] as usize];
+            let prev = nodes[cycle[(k + m - 1) % m] as usize];
+            grad[cycle[k] as usize] += (next - prev).cross(&n) * (0.5 * scale);
+        }
+    });
+}
+
+fn for_each_cycle(mesh: &TriMesh, cut: &CutMesh, id: u32, mut f: impl FnMut(&[u32])) {
+    if (id as usize) < cut.n_faces {
+        f(&mesh.faces()[id as usize]);
+        return;
+    }
+    let piece = &cut.pieces[id as usize - cut.n_faces];
+    let mut buf: Vec<u32> = Vec::new();
+    for cycle in &piece.cycles {
+        buf.clear();
+        buf.extend(cycle.iter().map(|c| c.0));
+        f(&buf);
+    }
+}
+
+fn for_each_fan_triangle(mesh: &TriMesh, cut: &CutMesh, id: u32, mut f: impl FnMut(u32, u32, u32)) {
+    if (id as usize) < cut.n_faces {
+        let [a, b, c] = mesh.faces()[id as usize];
+        f(a, b, c);
+        return;
+    }
+    let piece = &cut.pieces[id as usize - cut.n_faces];
+    for cycle in &piece.cycles {
+        for k in 1..cycle.len().saturating_sub(1) {
+            f(cycle[0].0, cycle[k].0, cycle[k + 1].0);
+        }
+    }
+}
+
+/// Whether a piece's edge is a chord of the given segment (helper for tests).
+pub fn is_chord(tag: EdgeTag, segment: u32) -> bool {
+    matches!(tag, EdgeTag::Chord { segment: s } if s == segment)
+}
+
+/// Chains node gradients back to the mesh vertices. Returns the number of points whose
+/// exact derivative was replaced by the fixed-weight one because the edge was nearly
+/// parallel to the face (the exact derivative grows without bound there).
+pub fn chain_to_vertices(
+    mesh: &TriMesh,
+    inter: &SelfIntersections,
+    mode: GradientMode,
+    node_grad: &[Vec3],
+    vertex_grad: &mut [Vec3],
+) -> usize {
+    let nv = mesh.n_vertices();
+    vertex_grad[..nv].copy_from_slice(&node_grad[..nv]);
+    let pos = mesh.positions();
+    let edges = mesh.topology().edges();
+    let mut n_fallback = 0;
+    for (i, p) in inter.points.iter().enumerate() {
+        let ge = node_grad[nv + 2 * i];
+        let gf = node_grad[nv + 2 * i + 1];
+        let [ia, ib] = edges[p.edge as usize];
+        let fv = mesh.faces()[p.face as usize];
+        let fixed = |vertex_grad: &mut [Vec3]| {
+            vertex_grad[ia as usize] += ge * (1.0 - p.t);
+            vertex_grad[ib as usize] += ge * p.t;
+            for k in 0..3 {
+                vertex_grad[fv[k] as usize] += gf * p.bary[k];
+            }
+        };
+        if mode == GradientMode::FixedBarycentric {
+            fixed(vertex_grad);
+            continue;
+        }
+        // Exact: both nodes sit at X(a, b, p, q, r) = a + t d, t = N·(p − a) / N·d.
+        let g = ge + gf;
+        let (a, b) = (pos[ia as usize], pos[ib as usize]);
+        let [pp, q, r] = fv.map(|v| pos[v as usize]);
+        let d = b - a;
+        let n = (q - pp).cross(&(r - pp));
+        let nd = n.dot(&d);
+        if nd.abs() <= 1e-9 * n.norm() * d.norm() || !nd.is_finite() {
+            n_fallback += 1;
+            fixed(vertex_grad);
+            continue;
+        }
+        let t = n.dot(&(pp - a)) / nd;
+        let x = a + d * t;
+        let s = g.dot(&d) / nd;
+        let h = g - n * s;
+        vertex_grad[ia as usize] += h * (1.0 - t);
+        vertex_grad[ib as usize] += h * t;
+        let w = (pp - x) * s;
+        vertex_grad[fv[0] as usize] += (q - r).cross(&w) + n * s;
+        vertex_grad[fv[1] as usize] += (r - pp).cross(&w);
+        vertex_grad[fv[2] as usize] += (pp - q).cross(&w);
+    }
+    n_fallback
+}

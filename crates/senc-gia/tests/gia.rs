@@ -1,0 +1,156 @@
+//! Known-answer, invariance and gradient tests of the penetration volume.
+
+use nalgebra::{Rotation3, Vector3};
+use senc_geom::shapes::{grid_box, icosphere, jitter, merge, rigid_transform};
+use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
+use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, Penetration, SizeRule};
+
+fn pen(mesh: &TriMesh, opts: &GiaOptions) -> Penetration {
+    let closure = close_holes(mesh, &HoleSelection::All).unwrap();
+    GiaWorkspace::new(&closure).penetration(&closure, opts).unwrap()
+}
+
+fn two_boxes(offset: Vec3, n: usize) -> TriMesh {
+    let a = grid_box(Vec3::zeros(), Vec3::new(1.0, 1.0, 1.0), n).unwrap();
+    let b = grid_box(offset, offset + Vec3::new(1.0, 1.0, 1.0), n).unwrap();
+    merge(&a, &b).unwrap()
+}
+
+fn overlap(offset: Vec3) -> f64 {
+    offset.iter().map(|d| (1.0 - d.abs()).max(0.0)).product()
+}
+
+#[test]
+fn overlapping_boxes_give_the_exact_overlap() {
+    for (offset, n) in [
+        (Vec3::new(0.5, 0.25, 0.25), 1),
+        (Vec3::new(0.3, 0.2, -0.1), 2),
+        (Vec3::new(0.5, 0.5, 0.5), 3), // grid-made
+    ] {
+        let m = two_boxes(offset, n);
+        for rule in [SizeRule::Faces, SizeRule::Area] {
+            let p = pen(&m, &GiaOptions { size_rule: rule, ..Default::default() });
+            let expect = overlap(offset);
+            assert!(
+                (p.volume - expect).abs() <= 1e-9 * expect,
+                "offset {offset:?} n {n}: {} vs {expect}, {:?}",
+                p.volume,
+                p.diagnostics
+            );
+            assert_eq!(p.regions.len(), 1, "{:?}", p.diagnostics);
+        }
+    }
+}
+
+#[test]
+fn jittered_boxes_stay_close_to_the_exact_overlap() {
+    let m = jitter(&two_boxes(Vec3::new(0.5, 0.5, 0.5), 4), 1e-9, 3).unwrap();
+    let p = pen(&m, &GiaOptions::default());
+    assert!((p.volume - 0.125).abs() < 1e-7, "{} {:?}", p.volume, p.diagnostics);
+}
+
+#[test]
+fn separate_and_touching_boxes_have_zero_volume() {
+    for offset in [Vec3::new(2.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0)] {
+        for n in [1, 3] {
+            let p = pen(&two_boxes(offset, n), &GiaOptions::default());
+            assert!(p.volume.abs() < 1e-12, "offset {offset:?}: {} {:?}", p.volume, p.diagnostics);
+        }
+    }
+}
+
+#[test]
+fn volume_does_not_depend_on_the_origin_and_is_rigid_invariant() {
+    let m = two_boxes(Vec3::new(0.3, 0.2, -0.1), 2);
+    let base = pen(&m, &GiaOptions::default());
+    let rot = Rotation3::from_euler_angles(0.3, -1.1, 2.0);
+    let moved = rigid_transform(&m, &rot, &Vector3::new(10.0, -3.0, 7.0)).unwrap();
+    let p = pen(&moved, &GiaOptions::default());
+    assert!((p.volume - base.volume).abs() < 1e-9 * base.volume, "{} vs {}", p.volume, base.volume);
+}
+
+#[test]
+fn overlapping_icospheres_are_close_to_the_lens_volume() {
+    // Two spheres of radius r at distance d overlap in a lens of volume
+    // π (4r + d)(2r − d)² / 12; the tessellation makes the mesh answer slightly smaller.
+    let (r, d) = (1.0, 1.0);
+    let a = icosphere(Vec3::zeros(), r, 3).unwrap();
+    let b = icosphere(Vec3::new(d, 0.0, 0.0), r, 3).unwrap();
+    let p = pen(&merge(&a, &b).unwrap(), &GiaOptions::default());
+    let lens = std::f64::consts::PI * (4.0 * r + d) * (2.0 * r - d).powi(2) / 12.0;
+    assert!((p.volume - lens).abs() < 0.03 * lens, "{} vs {lens} {:?}", p.volume, p.diagnostics);
+}
+
+fn gradient_check(m: &TriMesh, mode: GradientMode) {
+    let opts = GiaOptions { gradient: mode, ..Default::default() };
+    let base = pen(m, &opts);
+    assert!(base.volume > 0.0);
+    let h = 1e-6;
+    let scale = base.gradient.iter().map(|g| g.norm()).fold(0.0, f64::max);
+    let mut worst: f64 = 0.0;
+    for v in 0..m.n_vertices() {
+        for k in 0..3 {
+            let eval = |s: f64| {
+                let mut p = m.positions().to_vec();
+                p[v][k] += s;
+                let mm = m.with_positions(p).unwrap();
+                match mode {
+                    GradientMode::Exact => pen(&mm, &opts).volume,
+                    GradientMode::FixedBarycentric => fixed_weight_volume(m, &mm),
+                }
+            };
+            let fd = (eval(h) - eval(-h)) / (2.0 * h);
+            worst = worst.max((fd - base.gradient[v][k]).abs());
+        }
+    }
+    assert!(worst <= 1e-5 * scale, "{mode:?}: worst error {worst} vs gradient scale {scale}");
+}
+
+/// SENC's definition: the volume with the intersection points' weights frozen at `base`.
+fn fixed_weight_volume(base: &TriMesh, moved: &TriMesh) -> f64 {
+    let closure0 = close_holes(base, &HoleSelection::All).unwrap();
+    let inter = senc_geom::intersect::self_intersections(closure0.mesh());
+    let closure = close_holes(moved, &HoleSelection::All).unwrap();
+    let opts = GiaOptions { gradient: GradientMode::FixedBarycentric, ..Default::default() };
+    GiaWorkspace::new(&closure).analyse(&closure, &inter, &opts).volume
+}
+
+#[test]
+fn exact_gradient_matches_finite_differences() {
+    gradient_check(&two_boxes(Vec3::new(0.3, 0.2, -0.1), 1), GradientMode::Exact);
+    gradient_check(&jitter(&two_boxes(Vec3::new(0.45, 0.35, 0.25), 2), 1e-3, 5).unwrap(), GradientMode::Exact);
+}
+
+#[test]
+fn fixed_barycentric_gradient_matches_its_own_finite_differences() {
+    gradient_check(&two_boxes(Vec3::new(0.3, 0.2, -0.1), 1), GradientMode::FixedBarycentric);
+}
+
+#[test]
+fn gradient_has_no_net_force_or_torque() {
+    let m = jitter(&two_boxes(Vec3::new(0.45, 0.35, 0.25), 2), 1e-3, 9).unwrap();
+    for mode in [GradientMode::Exact, GradientMode::FixedBarycentric] {
+        let p = pen(&m, &GiaOptions { gradient: mode, ..Default::default() });
+        let force: Vec3 = p.gradient.iter().sum();
+        let torque: Vec3 = p.gradient.iter().zip(m.positions()).map(|(g, x)| x.cross(g)).sum();
+        let scale = p.gradient.iter().map(|g| g.norm()).sum::<f64>();
+        assert!(force.norm() < 1e-9 * scale, "{mode:?} force {force:?}");
+        assert!(torque.norm() < 1e-9 * scale, "{mode:?} torque {torque:?}");
+    }
+}
+
+/// Known limitation: when several crossings of one edge coincide exactly (box edges passing
+/// exactly through the other box's grid lines), the order of those points along the edge is
+/// not yet decided symbolically; the cut can then be inconsistent. It must never be a
+/// silent wrong answer: either the exact value or a reported skip.
+#[test]
+fn coincident_crossings_are_exact_or_reported() {
+    // Coincident crossings along edges, and exactly coplanar overlapping faces.
+    for (offset, n) in [(Vec3::new(0.5, 0.5, 0.5), 4), (Vec3::new(0.5, 0.5, 0.5), 2), (Vec3::new(0.0, 0.5, 0.0), 2)] {
+        let m = two_boxes(offset, n);
+        let p = pen(&m, &GiaOptions::default());
+        let d = &p.diagnostics;
+        let exact = (p.volume - overlap(offset)).abs() <= 1e-9;
+        assert!(exact || d.fills_met + d.fills_tied + d.groups_skipped + d.complex_faces > 0, "{} {d:?}", p.volume);
+    }
+}
