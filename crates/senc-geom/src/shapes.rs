@@ -327,15 +327,19 @@ pub fn torus(major: f64, minor: f64, n_major: usize, n_minor: usize) -> Result<T
 ///
 /// The straight tube of `radius` runs along z from `-leg_length` to `+leg_length`
 /// (`n_along_per_leg` rings of quads on each leg, a ring at `z = 0`); every vertex with
-/// `z > 0` is then rotated by `bend_angle` (radians) about the y axis through the origin.
-/// For a bend above 90° the second leg folds back through the first near the elbow: the
-/// surface's winding number is 2 on the intersection of the two legs' solids, whose volume
-/// is the penetration volume. `0 < bend_angle < π`; `leg_length` should exceed about
-/// `3 · radius / sin(π - bend_angle)` so that the caps stay clear of the other leg.
+/// `z > 0` is then rotated by `bend_angle` (radians) about the y axis through the origin and
+/// shifted by `offset` along y. For a bend above 90° the second leg folds back through the
+/// first near the elbow (the quads between the ring at `z = 0` and the first rotated ring
+/// form the sharp, wedge-shaped elbow). `offset = 0` bends in a plane: two equal cylinders
+/// whose axes meet are tangent to the same two planes, so their intersection curves touch
+/// each other at the elbow, a non-generic configuration; a small offset (e.g. `0.2 ·
+/// radius`) makes the crossing transversal. `0 < bend_angle < π`; `leg_length` should exceed
+/// about `3 · radius / sin(π - bend_angle)` so that the caps stay clear of the other leg.
 pub fn bent_tube(
     radius: f64,
     leg_length: f64,
     bend_angle: f64,
+    offset: f64,
     n_around: usize,
     n_along_per_leg: usize,
 ) -> Result<TriMesh, ShapeError> {
@@ -347,6 +351,9 @@ pub fn bent_tube(
             requirement: "must be in (0, π) radians",
         });
     }
+    if !offset.is_finite() {
+        return Err(ShapeError::InvalidParameter { name: "offset", value: offset, requirement: "must be finite" });
+    }
     count("n_along_per_leg", n_along_per_leg, 1, MAX_SUBDIVISION / 2)?;
     let straight = tube(radius, 2.0 * leg_length, n_around, 2 * n_along_per_leg, Caps::Fan)?;
     let rot = Rotation3::from_axis_angle(&Vec3::y_axis(), bend_angle);
@@ -356,7 +363,7 @@ pub fn bent_tube(
         .map(|p| {
             let q = p - Vec3::new(0.0, 0.0, leg_length);
             if q.z > 0.0 {
-                rot * q
+                rot * q + Vec3::new(0.0, offset, 0.0)
             } else {
                 q
             }
@@ -619,7 +626,7 @@ fn icospheres_overlap_grid() -> Result<TriMesh, ShapeError> {
     merge(&icosphere(v(0.0, 0.0, 0.0), 1.0, 4)?, &icosphere(v(1.2, 0.0, 0.0), 1.0, 4)?)
 }
 fn bent_tube_grid() -> Result<TriMesh, ShapeError> {
-    bent_tube(0.1, 0.6, 135f64.to_radians(), 64, 24)
+    bent_tube(0.1, 0.6, 135f64.to_radians(), 0.02, 64, 24)
 }
 fn sleeve_torso_grid() -> Result<TriMesh, ShapeError> {
     sleeve_through_torso(&SleeveTorso::default())
@@ -688,7 +695,7 @@ pub const FIXTURES: &[Fixture] = &[
     },
     Fixture {
         name: "bent_tube_grid",
-        description: "bent_tube(radius 0.1, leg_length 0.6, bend 135 deg, n_around 64, n_along_per_leg 24); 6,272 faces",
+        description: "bent_tube(radius 0.1, leg_length 0.6, bend 135 deg, offset 0.02, n_around 64, n_along_per_leg 24); 6,272 faces",
         close_holes: false,
         make: bent_tube_grid,
     },
@@ -847,14 +854,16 @@ mod tests {
         let m = bent_tube_grid().unwrap();
         assert!(m.topology().boundary_loops().is_empty());
         assert_eq!(m.n_faces(), 64 * 48 * 2 + 128);
-        // Leg A: the z <= 0 half of the straight tube; leg B: the rest, rotated 135° about y.
+        // Leg A: the z <= 0 half of the straight tube; leg B: the rest, rotated 135° about y
+        // and shifted 0.02 along y.
         let d_b = Rotation3::from_axis_angle(&Vec3::y_axis(), 135f64.to_radians()) * Vec3::z();
         let (mut on_a, mut on_b) = (0, 0);
         for p in m.positions() {
-            let to_b = p - d_b * p.dot(&d_b);
+            let q = p - Vec3::new(0.0, 0.02, 0.0);
+            let to_b = q - d_b * q.dot(&d_b);
             if p.z <= 0.0 && (p.xy().norm() - 0.1).abs() < 1e-12 {
                 on_a += 1;
-            } else if p.dot(&d_b) > 0.0 && (to_b.norm() - 0.1).abs() < 1e-12 {
+            } else if q.dot(&d_b) > 0.0 && (to_b.norm() - 0.1).abs() < 1e-12 {
                 on_b += 1;
             }
         }
@@ -863,7 +872,7 @@ mod tests {
         // keeps its own), never its sign.
         let prism = 0.5 * 64.0 * 0.01 * (TAU / 64.0).sin() * 1.2;
         assert!(rel(m.signed_volume(), prism) < 0.05, "{} vs {prism}", m.signed_volume());
-        assert!(bent_tube(0.1, 0.6, PI, 8, 2).is_err());
+        assert!(bent_tube(0.1, 0.6, PI, 0.0, 8, 2).is_err());
     }
 
     #[test]
@@ -964,7 +973,8 @@ mod tests {
         let mut checked = 0;
         for f in FIXTURES {
             let path = dir.join(format!("{}.json", f.name));
-            let Ok(text) = std::fs::read_to_string(&path) else { continue };
+            let text = std::fs::read_to_string(&path)
+                .unwrap_or_else(|e| panic!("{}: {e}; regenerate with tools/libigl_answers.py", path.display()));
             let json: serde_json::Value = serde_json::from_str(&text).unwrap();
             let m = f.build().unwrap();
             assert_eq!(json["n_vertices"].as_u64(), Some(m.n_vertices() as u64), "{}", f.name);
@@ -974,8 +984,23 @@ mod tests {
             let want = json["coordinate_checksum"].as_f64().unwrap();
             // Rounding and libm differences stay far below this; a 1e-9 jitter does not.
             assert!((sum - want).abs() <= 1e-13 * (1.0 + scale), "{}: {sum} vs {want}", f.name);
+            // The answers themselves: pairs sorted, unique, in range; exact volumes match.
+            let pairs: Vec<[u64; 2]> = json["intersecting_face_pairs"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|p| [p[0].as_u64().unwrap(), p[1].as_u64().unwrap()])
+                .collect();
+            assert_eq!(pairs.len() as u64, json["n_intersecting_face_pairs"].as_u64().unwrap());
+            assert!(pairs.windows(2).all(|w| w[0] < w[1]), "{}: pairs not sorted", f.name);
+            assert!(pairs.iter().all(|p| p[0] < p[1] && p[1] < m.n_faces() as u64), "{}", f.name);
+            if let (Some(vol), Some(exact)) =
+                (json["penetration_volume_m3"].as_f64(), json["analytic_volume_m3"].as_f64())
+            {
+                assert!((vol - exact).abs() <= 1e-12 * exact.max(1.0), "{}: {vol} vs {exact}", f.name);
+            }
             checked += 1;
         }
-        assert!(checked == 0 || checked == FIXTURES.len(), "some answer files are missing");
+        assert_eq!(checked, FIXTURES.len());
     }
 }
