@@ -1,0 +1,148 @@
+//! A symmetric block-sparse matrix (3×3 blocks, CSR over vertices) for the reference
+//! solver's Newton systems, with element assembly, a parallel product, and a
+//! block-Jacobi preconditioned conjugate gradient solve.
+
+use nalgebra::{Matrix3, SymmetricEigen};
+use rayon::prelude::*;
+
+use senc_geom::Vec3;
+
+/// Block-CSR matrix; the sparsity pattern is fixed at construction.
+#[derive(Debug, Clone)]
+pub struct BlockSparse {
+    offsets: Vec<u32>,
+    cols: Vec<u32>,
+    blocks: Vec<Matrix3<f64>>,
+}
+
+impl BlockSparse {
+    /// The pattern holding the diagonal and every pair of vertices sharing an element.
+    pub fn with_pattern(n_vertices: usize, elements: impl Iterator<Item = Vec<u32>>) -> Self {
+        let mut rows: Vec<Vec<u32>> = (0..n_vertices as u32).map(|v| vec![v]).collect();
+        for el in elements {
+            for &i in &el {
+                for &j in &el {
+                    rows[i as usize].push(j);
+                }
+            }
+        }
+        let mut offsets = Vec::with_capacity(n_vertices + 1);
+        let mut cols = Vec::new();
+        offsets.push(0);
+        for mut r in rows {
+            r.sort_unstable();
+            r.dedup();
+            cols.extend_from_slice(&r);
+            offsets.push(cols.len() as u32);
+        }
+        let blocks = vec![Matrix3::zeros(); cols.len()];
+        Self { offsets, cols, blocks }
+    }
+
+    /// Sets every block to zero.
+    pub fn clear(&mut self) {
+        self.blocks.par_iter_mut().for_each(|b| *b = Matrix3::zeros());
+    }
+
+    fn index(&self, i: u32, j: u32) -> Option<usize> {
+        let (a, b) = (self.offsets[i as usize] as usize, self.offsets[i as usize + 1] as usize);
+        self.cols[a..b].binary_search(&j).ok().map(|k| a + k)
+    }
+
+    /// Adds `h[k][l]` to block `(el[k], el[l])`. Pairs outside the pattern are ignored.
+    pub fn add_element<const K: usize>(&mut self, el: &[u32; K], h: &[[Matrix3<f64>; K]; K]) {
+        for k in 0..K {
+            for l in 0..K {
+                if let Some(idx) = self.index(el[k], el[l]) {
+                    self.blocks[idx] += h[k][l];
+                }
+            }
+        }
+    }
+
+    /// Adds `m` to diagonal block `i`.
+    pub fn add_diagonal(&mut self, i: u32, m: &Matrix3<f64>) {
+        if let Some(idx) = self.index(i, i) {
+            self.blocks[idx] += m;
+        }
+    }
+
+    /// `y = A x`.
+    pub fn mul(&self, x: &[Vec3], y: &mut [Vec3]) {
+        y.par_iter_mut().enumerate().for_each(|(i, yi)| {
+            let (a, b) = (self.offsets[i] as usize, self.offsets[i + 1] as usize);
+            let mut s = Vec3::zeros();
+            for k in a..b {
+                s += self.blocks[k] * x[self.cols[k] as usize];
+            }
+            *yi = s;
+        });
+    }
+
+    /// Solves `A x = b` by conjugate gradients with a block-Jacobi preconditioner, from
+    /// `x = 0`, to relative residual `tol` or `max_iter` iterations. Returns the iteration
+    /// count. `A` must be symmetric positive semi-definite.
+    pub fn solve_pcg(&self, b: &[Vec3], x: &mut [Vec3], tol: f64, max_iter: usize) -> usize {
+        let n = b.len();
+        let precond: Vec<Matrix3<f64>> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let d = self.index(i as u32, i as u32).map(|k| self.blocks[k]).unwrap_or_else(Matrix3::identity);
+                d.try_inverse().unwrap_or_else(Matrix3::identity)
+            })
+            .collect();
+        let dot = |a: &[Vec3], b: &[Vec3]| a.par_iter().zip(b).map(|(a, b)| a.dot(b)).sum::<f64>();
+        x.iter_mut().for_each(|v| *v = Vec3::zeros());
+        let mut r = b.to_vec();
+        let mut z: Vec<Vec3> = r.iter().zip(&precond).map(|(r, p)| p * r).collect();
+        let mut p = z.clone();
+        let mut ap = vec![Vec3::zeros(); n];
+        let mut rz = dot(&r, &z);
+        let b_norm = dot(b, b).sqrt();
+        if b_norm == 0.0 {
+            return 0;
+        }
+        for it in 0..max_iter {
+            self.mul(&p, &mut ap);
+            let pap = dot(&p, &ap);
+            if pap.is_nan() || pap <= 0.0 {
+                return it;
+            }
+            let alpha = rz / pap;
+            x.par_iter_mut().zip(&p).for_each(|(x, p)| *x += alpha * p);
+            r.par_iter_mut().zip(&ap).for_each(|(r, ap)| *r -= alpha * ap);
+            if dot(&r, &r).sqrt() <= tol * b_norm {
+                return it + 1;
+            }
+            z.par_iter_mut().zip(&r).zip(&precond).for_each(|((z, r), m)| *z = m * r);
+            let rz_new = dot(&r, &z);
+            let beta = rz_new / rz;
+            rz = rz_new;
+            p.par_iter_mut().zip(&z).for_each(|(p, z)| *p = z + beta * *p);
+        }
+        max_iter
+    }
+}
+
+/// Projects a symmetric `3K × 3K` matrix given as blocks onto the positive semi-definite
+/// cone (negative eigenvalues clamped to zero).
+pub fn project_spd<const K: usize>(h: &mut [[Matrix3<f64>; K]; K]) {
+    let n = 3 * K;
+    let mut m = nalgebra::DMatrix::<f64>::zeros(n, n);
+    for k in 0..K {
+        for l in 0..K {
+            m.view_mut((3 * k, 3 * l), (3, 3)).copy_from(&h[k][l]);
+        }
+    }
+    let eig = SymmetricEigen::new(m);
+    if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
+        return;
+    }
+    let d = nalgebra::DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0)));
+    let m = &eig.eigenvectors * d * eig.eigenvectors.transpose();
+    for k in 0..K {
+        for l in 0..K {
+            h[k][l] = m.fixed_view::<3, 3>(3 * k, 3 * l).into_owned();
+        }
+    }
+}

@@ -1,0 +1,365 @@
+//! Scene-driven assembly: the energy of one frame built from the rest mesh, the material and
+//! config, and an optional body, with only the terms the scene needs.
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
+
+use crate::config::{BendingRest, EnergyConfig};
+use crate::error::EnergyError;
+use crate::hessian::BlockSparse;
+use crate::rest::RestState;
+use crate::scatter::Scatter;
+use crate::terms::bending::Bending;
+use crate::terms::body::{BodyQueries, Collision, Friction};
+use crate::terms::gravity::UniformField;
+use crate::terms::inertia::Inertia;
+use crate::terms::repulsion::Repulsion;
+use crate::terms::self_collision::SelfCollision;
+use crate::terms::stretching::Stretching;
+
+/// Names of the terms, as they appear in breakdowns and `cargo xtask energy --json`.
+pub mod names {
+    /// StVK stretching.
+    pub const STRETCHING: &str = "stretching";
+    /// Discrete-shell bending.
+    pub const BENDING: &str = "bending";
+    /// Inertia.
+    pub const INERTIA: &str = "inertia";
+    /// Gravity.
+    pub const GRAVITY: &str = "gravity";
+    /// External acceleration.
+    pub const EXTERNAL: &str = "external";
+    /// Body collision.
+    pub const COLLISION: &str = "collision";
+    /// Friction.
+    pub const FRICTION: &str = "friction";
+    /// SENC's self-collision volume.
+    pub const SELF_COLLISION: &str = "self_collision";
+    /// Area of penetrating faces (ablation).
+    pub const AREA: &str = "area";
+    /// Repulsive baseline.
+    pub const REPULSION: &str = "repulsion";
+}
+
+/// Energy per term, in joules, in a fixed order, and the total.
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+pub struct Breakdown {
+    /// `(term name, J)` for the terms present.
+    pub terms: Vec<(&'static str, f64)>,
+    /// Sum of the terms, J.
+    pub total: f64,
+}
+
+impl Breakdown {
+    fn push(&mut self, name: &'static str, e: f64) {
+        self.terms.push((name, e));
+        self.total += e;
+    }
+
+    /// The energy of term `name`, if present.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.terms.iter().find(|t| t.0 == name).map(|t| t.1)
+    }
+}
+
+/// The per-garment part of the energy: rest state, material, config, and the queries that
+/// the scene needs (body queries only with a body; GIA only when the self-collision or area
+/// weight is positive and the closed garment is a closed surface).
+#[derive(Debug)]
+pub struct EnergyModel {
+    config: EnergyConfig,
+    rest: Arc<RestState>,
+    mass: Arc<Vec<f64>>,
+    stretching: Stretching,
+    bending: Option<Bending>,
+    body: Option<BodyQueries>,
+    self_collision: Option<SelfCollision>,
+    repulsion: Option<Repulsion>,
+    pattern: Vec<Vec<u32>>,
+}
+
+impl EnergyModel {
+    /// Builds the model of garment `rest` with `config`, and optionally a body mesh (whose
+    /// positions are given per frame; only its faces are used here).
+    pub fn new(rest: &TriMesh, config: &EnergyConfig, body: Option<&TriMesh>) -> Result<Self, EnergyError> {
+        config.validate()?;
+        let state = Arc::new(RestState::new(rest));
+        let n = rest.n_vertices();
+        let mass = Arc::new(state.vertex_area.iter().map(|a| a * config.material.density).collect::<Vec<_>>());
+        let face_scatter = Arc::new(Scatter::new(n, &state.faces));
+        let stretching = Stretching::new(
+            Arc::clone(&state),
+            face_scatter,
+            config.material.mu,
+            config.material.lambda,
+            config.material.thickness,
+        );
+        let bending = (config.material.bending_stiffness > 0.0 && !state.hinges.is_empty()).then(|| {
+            let hinges: Vec<[u32; 4]> = state.hinges.iter().map(|h| h.vertices).collect();
+            Bending::new(
+                Arc::new(state.hinges.clone()),
+                Arc::new(Scatter::new(n, &hinges)),
+                config.material.bending_stiffness,
+                config.bending_rest == BendingRest::RestMesh,
+            )
+        });
+        let sc = &config.self_collision;
+        let self_collision = if sc.weight > 0.0 || config.area_weight > 0.0 {
+            let n_loops = rest.topology().boundary_loops().len();
+            let selection = if sc.open_holes.is_empty() {
+                HoleSelection::All
+            } else {
+                HoleSelection::AllExcept(sc.open_holes.clone())
+            };
+            let closure = close_holes(rest, &selection)?;
+            // Nothing closed on a garment with holes: no enclosed volume, no GIA.
+            let closed_surface = !closure.is_identity() || n_loops == 0;
+            closed_surface.then(|| SelfCollision::new(closure, sc.gia, sc.weight, config.area_weight))
+        } else {
+            None
+        };
+        let repulsion = (config.repulsion.weight > 0.0 && config.repulsion.threshold > 0.0)
+            .then(|| Repulsion::new(rest.topology_arc(), config.repulsion.weight, config.repulsion.threshold));
+        let pattern =
+            state.faces.iter().map(|f| f.to_vec()).chain(state.hinges.iter().map(|h| h.vertices.to_vec())).collect();
+        Ok(Self {
+            config: config.clone(),
+            rest: state,
+            mass,
+            stretching,
+            bending,
+            body: body.map(BodyQueries::new),
+            self_collision,
+            repulsion,
+            pattern,
+        })
+    }
+
+    /// The config.
+    pub fn config(&self) -> &EnergyConfig {
+        &self.config
+    }
+
+    /// Number of garment vertices.
+    pub fn n_vertices(&self) -> usize {
+        self.rest.n_vertices()
+    }
+
+    /// Lumped vertex masses, kg.
+    pub fn masses(&self) -> &[f64] {
+        &self.mass
+    }
+
+    /// The rest state.
+    pub fn rest(&self) -> &RestState {
+        &self.rest
+    }
+
+    /// GIA queries made so far (0 when no self-collision term was built).
+    pub fn gia_calls(&self) -> u64 {
+        self.self_collision.as_ref().map_or(0, |s| s.gia_calls())
+    }
+
+    /// Body nearest-face query batches made so far (0 without a body).
+    pub fn body_queries(&self) -> u64 {
+        self.body.as_ref().map_or(0, |b| b.query_count())
+    }
+
+    /// Whether a body was given.
+    pub fn has_body(&self) -> bool {
+        self.body.is_some()
+    }
+
+    /// Names of the terms a frame of this model has (in breakdown order).
+    pub fn term_names(&self) -> Vec<&'static str> {
+        let mut t = vec![names::STRETCHING];
+        if self.bending.is_some() {
+            t.push(names::BENDING);
+        }
+        if self.config.inertia {
+            t.push(names::INERTIA);
+        }
+        t.push(names::GRAVITY);
+        if self.config.external_acceleration.iter().any(|&a| a != 0.0) {
+            t.push(names::EXTERNAL);
+        }
+        if self.body.is_some() {
+            if self.config.collision.weight > 0.0 {
+                t.push(names::COLLISION);
+            }
+            if self.config.friction.mu > 0.0 {
+                t.push(names::FRICTION);
+            }
+        }
+        if let Some(sc) = &self.self_collision {
+            let (v, a) = sc.parts();
+            if v {
+                t.push(names::SELF_COLLISION);
+            }
+            if a {
+                t.push(names::AREA);
+            }
+        }
+        if self.repulsion.is_some() {
+            t.push(names::REPULSION);
+        }
+        t
+    }
+
+    /// Prepares the energy of the frame predicting `x[t+1]` from `x_cur = x[t]` and
+    /// `x_prev = x[t−1]`, with the body at t and t+1 (required exactly when the model has a
+    /// body). Runs the body's nearest-face queries once.
+    pub fn frame<'m>(
+        &'m self,
+        x_cur: &[Vec3],
+        x_prev: &[Vec3],
+        body: Option<(&[Vec3], &[Vec3])>,
+    ) -> Result<FrameEnergy<'m>, EnergyError> {
+        check_positions("x[t]", x_cur, self.n_vertices())?;
+        check_positions("x[t-1]", x_prev, self.n_vertices())?;
+        let inertia = self.config.inertia.then(|| Inertia::new(Arc::clone(&self.mass), x_cur, x_prev, self.config.dt));
+        let gravity = UniformField::new(Arc::clone(&self.mass), Vec3::from(self.config.gravity));
+        let ext = Vec3::from(self.config.external_acceleration);
+        let external = (ext != Vec3::zeros()).then(|| UniformField::new(Arc::clone(&self.mass), ext));
+        let (collision, friction) = match (&self.body, body) {
+            (None, None) => (None, None),
+            (Some(_), None) => {
+                return Err(EnergyError::Body("the model has a body but the frame gives no body positions".into()))
+            }
+            (None, Some(_)) => {
+                return Err(EnergyError::Body(
+                    "the frame gives body positions but the model was built without a body".into(),
+                ))
+            }
+            (Some(q), Some((b_t, b_next))) => {
+                let c = self.config.collision;
+                let f = self.config.friction;
+                let need = c.weight > 0.0 || f.mu > 0.0;
+                let contacts = if need { q.contacts(x_cur, b_t, b_next)? } else { Vec::new() };
+                let g = Vec3::from(self.config.gravity).norm();
+                (
+                    (c.weight > 0.0).then(|| Collision::new(&contacts, c.weight, c.epsilon)),
+                    (f.mu > 0.0).then(|| Friction::new(&contacts, x_cur, &self.mass, f.mu, g, f.distance, f.smoothing)),
+                )
+            }
+        };
+        Ok(FrameEnergy { model: self, inertia, gravity, external, collision, friction })
+    }
+}
+
+fn check_positions(what: &'static str, x: &[Vec3], n: usize) -> Result<(), EnergyError> {
+    if x.len() != n {
+        return Err(EnergyError::VertexCount { what, expected: n, got: x.len() });
+    }
+    if let Some(v) = x.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(EnergyError::NonFinite { what, vertex: v, value: x[v].into() });
+    }
+    Ok(())
+}
+
+/// The incremental potential `E(x[t+1])` of one frame.
+#[derive(Debug)]
+pub struct FrameEnergy<'m> {
+    model: &'m EnergyModel,
+    inertia: Option<Inertia>,
+    gravity: UniformField,
+    external: Option<UniformField>,
+    collision: Option<Collision>,
+    friction: Option<Friction>,
+}
+
+impl FrameEnergy<'_> {
+    /// The model.
+    pub fn model(&self) -> &EnergyModel {
+        self.model
+    }
+
+    /// The inertial target `2x[t] − x[t−1]` (a good initial guess), if inertia is on.
+    pub fn inertial_target(&self) -> Option<&[Vec3]> {
+        self.inertia.as_ref().map(|i| i.target())
+    }
+
+    /// Energy breakdown of `x = x[t+1]`; when `grad` is given it is overwritten with
+    /// `∂E/∂x` (N).
+    pub fn evaluate(&self, x: &[Vec3], mut grad: Option<&mut [Vec3]>) -> Result<Breakdown, EnergyError> {
+        let m = self.model;
+        check_positions("x[t+1]", x, m.n_vertices())?;
+        if let Some(g) = grad.as_deref_mut() {
+            if g.len() != x.len() {
+                return Err(EnergyError::VertexCount { what: "gradient buffer", expected: x.len(), got: g.len() });
+            }
+            g.par_iter_mut().for_each(|v| *v = Vec3::zeros());
+        }
+        let mut b = Breakdown::default();
+        b.push(names::STRETCHING, m.stretching.eval(x, grad.as_deref_mut()));
+        if let Some(t) = &m.bending {
+            b.push(names::BENDING, t.eval(x, grad.as_deref_mut()));
+        }
+        if let Some(t) = &self.inertia {
+            b.push(names::INERTIA, t.eval(x, grad.as_deref_mut()));
+        }
+        b.push(names::GRAVITY, self.gravity.eval(x, grad.as_deref_mut()));
+        if let Some(t) = &self.external {
+            b.push(names::EXTERNAL, t.eval(x, grad.as_deref_mut()));
+        }
+        if let Some(t) = &self.collision {
+            b.push(names::COLLISION, t.eval(x, grad.as_deref_mut()));
+        }
+        if let Some(t) = &self.friction {
+            b.push(names::FRICTION, t.eval(x, grad.as_deref_mut()));
+        }
+        if let Some(t) = &m.self_collision {
+            let v = t.eval(x, grad.as_deref_mut())?;
+            let (vol, area) = t.parts();
+            if vol {
+                b.push(names::SELF_COLLISION, v.volume_energy);
+            }
+            if area {
+                b.push(names::AREA, v.area_energy);
+            }
+        }
+        if let Some(t) = &m.repulsion {
+            b.push(names::REPULSION, t.eval(x, grad));
+        }
+        Ok(b)
+    }
+
+    /// A new, empty Hessian with this model's sparsity pattern.
+    pub fn hessian_pattern(&self) -> BlockSparse {
+        BlockSparse::with_pattern(self.model.n_vertices(), self.model.pattern.iter().cloned())
+    }
+
+    /// Fills `h` with the positive semi-definite approximation of `∂²E/∂x²` the reference
+    /// solver uses: projected StVK, Gauss–Newton bending, inertia, collision and friction
+    /// (the self-collision and repulsion terms contribute gradients only).
+    pub fn hessian(&self, x: &[Vec3], h: &mut BlockSparse) {
+        h.clear();
+        for (f, hf) in self.model.rest.faces.iter().zip(self.model.stretching.hessians(x)) {
+            h.add_element(f, &hf);
+        }
+        if let Some(bend) = &self.model.bending {
+            for (hinge, hh) in bend.hinges().iter().zip(bend.hessians(x)) {
+                h.add_element(&hinge.vertices, &hh);
+            }
+        }
+        for i in 0..x.len() {
+            let mut d = nalgebra::Matrix3::zeros();
+            if let Some(t) = &self.inertia {
+                d += nalgebra::Matrix3::identity() * t.stiffness(i);
+            }
+            if let Some(c) = &self.collision {
+                d += c.hessian(i, &x[i]);
+            }
+            h.add_diagonal(i as u32, &d);
+        }
+        if let Some(fr) = &self.friction {
+            for (i, m) in fr.hessians(x) {
+                h.add_diagonal(i, &m);
+            }
+        }
+    }
+}
