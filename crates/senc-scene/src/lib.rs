@@ -1,0 +1,35 @@
+//! senc-scene: everything between the registry data and a simulation input, without burn.
+//!
+//! Skeletons and linear blend skinning ([`skeleton`]), BVH motion capture parsing,
+//! resampling and retargeting by joint name ([`bvh`], [`motion`]), the committed body and
+//! garment assets ([`assets`]), inside/closest-point queries against the body
+//! ([`body_query`]), the garment building and fitting steps ([`build`]), TOML scene configs
+//! with a train/test motion split ([`config`], [`scene`]) and a software rasteriser for
+//! preview pictures ([`raster`]).
+//!
+//! Units: metres, seconds, radians inside (BVH files carry degrees); Y up; the body faces +z.
+//! This crate depends on senc-geom only among ours and never on burn, so data tools build in
+//! seconds.
+
+// `!(x > 0.0)` is deliberate throughout: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod assets;
+pub mod body_query;
+pub mod build;
+pub mod bvh;
+pub mod config;
+pub mod error;
+pub mod motion;
+pub mod raster;
+pub mod scene;
+pub mod skeleton;
+
+pub use assets::{BodyAsset, GarmentAsset, NamedLoop};
+pub use body_query::BodyQuery;
+pub use bvh::Bvh;
+pub use config::SceneConfig;
+pub use error::SceneError;
+pub use motion::Motion;
+pub use scene::{InitialState, Scene, Split};
+pub use skeleton::{skin, Bone, Pose, Skeleton, SkinWeights};

@@ -1,0 +1,285 @@
+//! senc-scene integration tests: skinning, BVH round trip, resampling, configs, and the
+//! committed assets (every garment valid, named holes present, no vertex inside the body).
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::UnitQuaternion;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use senc_geom::Vec3;
+use senc_scene::bvh::{BvhJoint, Channel};
+use senc_scene::motion::{retarget, CMU_TO_CMU_MB};
+use senc_scene::{
+    skin, BodyAsset, BodyQuery, Bone, Bvh, GarmentAsset, Motion, Pose, Scene, SceneConfig, Skeleton, SkinWeights,
+};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn chain_skeleton() -> Skeleton {
+    Skeleton {
+        bones: vec![
+            Bone { name: "Hips".into(), parent: None, head: Vec3::new(0.0, 1.0, 0.0), tail: Vec3::new(0.0, 1.2, 0.0) },
+            Bone {
+                name: "LeftUpLeg".into(),
+                parent: Some(0),
+                head: Vec3::new(0.1, 1.0, 0.0),
+                tail: Vec3::new(0.1, 0.5, 0.0),
+            },
+            Bone {
+                name: "LeftLeg".into(),
+                parent: Some(1),
+                head: Vec3::new(0.1, 0.5, 0.0),
+                tail: Vec3::new(0.1, 0.1, 0.0),
+            },
+            Bone {
+                name: "LeftFoot".into(),
+                parent: Some(2),
+                head: Vec3::new(0.1, 0.1, 0.0),
+                tail: Vec3::new(0.1, 0.0, 0.1),
+            },
+        ],
+    }
+}
+
+fn random_weights(n: usize, n_bones: usize, rng: &mut ChaCha8Rng) -> SkinWeights {
+    let lists: Vec<Vec<(u16, f32)>> =
+        (0..n).map(|_| (0..n_bones).map(|b| (b as u16, rng.random_range(0.0f32..1.0) + 0.01)).collect()).collect();
+    SkinWeights::from_lists(&lists).unwrap()
+}
+
+#[test]
+fn skinning_at_identity_reproduces_rest_pose() {
+    let sk = chain_skeleton();
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let rest: Vec<Vec3> = (0..50).map(|_| Vec3::new(rng.random(), rng.random(), rng.random())).collect();
+    let w = random_weights(rest.len(), sk.len(), &mut rng);
+    w.validate(rest.len(), sk.len()).unwrap();
+    let tr = sk.bone_transforms(&Pose::identity(sk.len())).unwrap();
+    let out = skin(&rest, &w, &tr);
+    for (a, b) in rest.iter().zip(&out) {
+        assert!((a - b).norm() < 1e-12, "{a} became {b}");
+    }
+}
+
+#[test]
+fn skinning_a_rigid_rotation_keeps_bone_chain_connected() {
+    // Rotating the thigh moves the knee (head of LeftLeg) to the rotated position, and a
+    // vertex bound fully to LeftLeg at its head lands exactly there.
+    let sk = chain_skeleton();
+    let mut pose = Pose::identity(sk.len());
+    let q = UnitQuaternion::from_axis_angle(&Vec3::x_axis(), 0.7);
+    pose.rotations[1] = q;
+    pose.rotations[2] = q;
+    pose.rotations[3] = q;
+    pose.root_translation = Vec3::new(0.0, 0.0, 0.3);
+    let tr = sk.bone_transforms(&pose).unwrap();
+    let knee = sk.bones[2].head;
+    let w = SkinWeights::from_lists(&[vec![(2, 1.0)]]).unwrap();
+    let got = skin(&[knee], &w, &tr)[0];
+    let hip = sk.bones[1].head + pose.root_translation;
+    let expected = hip + q * (knee - sk.bones[1].head);
+    assert!((got - expected).norm() < 1e-12, "{got} vs {expected}");
+}
+
+fn random_bvh(rng: &mut ChaCha8Rng) -> Bvh {
+    let zyx = vec![Channel::Zrotation, Channel::Yrotation, Channel::Xrotation];
+    let joints = vec![
+        BvhJoint {
+            name: "Hips".into(),
+            parent: None,
+            offset: Vec3::zeros(),
+            channels: vec![
+                Channel::Xposition,
+                Channel::Yposition,
+                Channel::Zposition,
+                Channel::Zrotation,
+                Channel::Xrotation,
+                Channel::Yrotation,
+            ],
+            end_site: None,
+        },
+        BvhJoint {
+            name: "LeftUpLeg".into(),
+            parent: Some(0),
+            offset: Vec3::new(1.0, -0.2, 0.0),
+            channels: zyx.clone(),
+            end_site: None,
+        },
+        BvhJoint {
+            name: "LeftLeg".into(),
+            parent: Some(1),
+            offset: Vec3::new(0.0, -4.0, 0.0),
+            channels: zyx.clone(),
+            end_site: None,
+        },
+        BvhJoint {
+            name: "LeftFoot".into(),
+            parent: Some(2),
+            offset: Vec3::new(0.0, -4.0, 0.0),
+            channels: zyx,
+            end_site: Some(Vec3::new(0.0, -0.5, 1.0)),
+        },
+    ];
+    let n_ch: usize = joints.iter().map(|j| j.channels.len()).sum();
+    let frames = (0..7).map(|_| (0..n_ch).map(|_| rng.random_range(-180.0..180.0)).collect()).collect();
+    Bvh { joints, frame_time: 1.0 / 120.0, frames }
+}
+
+#[test]
+fn bvh_write_then_read_round_trips_joint_angles() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let bvh = random_bvh(&mut rng);
+    let text = bvh.to_bvh_string();
+    let back = Bvh::parse(&text, Path::new("<test>")).unwrap();
+    assert_eq!(back.joints, bvh.joints);
+    assert_eq!(back.frames.len(), bvh.frames.len());
+    for (a, b) in back.frames.iter().zip(&bvh.frames) {
+        for (x, y) in a.iter().zip(b) {
+            assert_eq!(x, y, "angle changed in the round trip");
+        }
+    }
+    // and the rotations they mean
+    for f in 0..bvh.frames.len() {
+        for (qa, qb) in back.global_rotations(f).iter().zip(bvh.global_rotations(f)) {
+            assert!(qa.angle_to(&qb) < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn bvh_channel_order_is_intrinsic() {
+    // Z 90 then X 90: R = Rz(90) Rx(90) maps +y to +x? Rx(90) y = z; Rz(90) z = z. So +y -> +z.
+    let text = "HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 2 Zrotation Xrotation\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\n90 90\n";
+    let b = Bvh::parse(text, Path::new("<t>")).unwrap();
+    let v = b.global_rotations(0)[0] * Vec3::y();
+    assert!((v - Vec3::z()).norm() < 1e-12, "{v}");
+}
+
+#[test]
+fn bvh_errors_name_the_line() {
+    let text = "HIERARCHY\nROOT A\n{\nOFFSET 0 zero 0\n}\n";
+    let e = Bvh::parse(text, Path::new("x.bvh")).unwrap_err().to_string();
+    assert!(e.contains("line 4") && e.contains("zero"), "{e}");
+}
+
+#[test]
+fn resampling_keeps_clip_duration() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut bvh = random_bvh(&mut rng);
+    bvh.frames = (0..241)
+        .map(|k| {
+            let t = k as f64 / 120.0;
+            let mut row = vec![t, 0.9, 0.0, 0.0, 0.0, 0.0];
+            row.extend((0..9).map(|c| 30.0 * (t * 2.0 + c as f64).sin()));
+            row
+        })
+        .collect();
+    let m = retarget(&bvh, &chain_skeleton(), CMU_TO_CMU_MB, true, "test").unwrap();
+    assert!((m.duration() - 2.0).abs() < 1e-12);
+    for fps in [30.0, 25.0, 100.0 / 3.0] {
+        let r = m.resample(fps).unwrap();
+        assert!((r.duration() - m.duration()).abs() < 1.0 / fps, "{} vs {}", r.duration(), m.duration());
+        // frame k of the 30 fps clip is frame 4k of the 120 fps one
+        if fps == 30.0 {
+            assert_eq!(r.n_frames(), 61);
+            let (a, b) = (r.pose(10).unwrap(), m.pose(40).unwrap());
+            for (x, y) in a.rotations.iter().zip(&b.rotations) {
+                assert!(x.angle_to(y) < 1e-5);
+            }
+        }
+    }
+}
+
+#[test]
+fn lead_in_starts_at_rest() {
+    let sk = chain_skeleton();
+    let q = UnitQuaternion::from_axis_angle(&Vec3::x_axis(), 1.0);
+    let pose = Pose { rotations: vec![q; 4], root_translation: Vec3::new(0.0, 0.0, 1.0) };
+    let names = sk.bones.iter().map(|b| b.name.clone()).collect();
+    let m = Motion::from_poses("m", 30.0, names, &[pose.clone(), pose]).with_lead_in(10).unwrap();
+    assert_eq!(m.n_frames(), 12);
+    assert_eq!(m.pose(0).unwrap(), Pose::identity(4));
+    assert!(m.pose(10).unwrap().rotations[0].angle_to(&q) < 1e-6);
+}
+
+#[test]
+fn config_refuses_unknown_keys_naming_them() {
+    let base = "[scene]\ngarment = \"g\"\nbody = \"b\"\n[scene.motions]\ntrain = [\"a\"]\n";
+    SceneConfig::parse(base, Path::new("c.toml")).unwrap();
+    let bad = format!("{base}[scene.material]\ndensty = 0.2\n");
+    let e = SceneConfig::parse(&bad, Path::new("c.toml")).unwrap_err().to_string();
+    assert!(e.contains("densty"), "{e}");
+    let bad = "[scene]\ngarment = \"g\"\nbody = \"b\"\nwind = 3\n[scene.motions]\ntrain = [\"a\"]\n";
+    let e = SceneConfig::parse(bad, Path::new("c.toml")).unwrap_err().to_string();
+    assert!(e.contains("wind"), "{e}");
+    // other top-level tables belong to other crates and are left alone
+    SceneConfig::parse(&format!("{base}[train]\nsteps = 3\n"), Path::new("c.toml")).unwrap();
+    // a test motion may not also be a training motion
+    let e = SceneConfig::parse(&base.replace("train = [\"a\"]", "train = [\"a\"]\ntest = [\"a\"]"), Path::new("c"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("unseen"), "{e}");
+}
+
+#[test]
+fn material_from_young_poisson() {
+    let m = senc_scene::config::MaterialConfig { young: Some(1000.0), poisson: Some(0.25), ..Default::default() };
+    let (mu, la) = m.lame().unwrap();
+    assert!((mu - 400.0).abs() < 1e-9 && (la - 400.0).abs() < 1e-9);
+    let m = senc_scene::config::MaterialConfig { young: Some(1000.0), lame_mu: Some(3.0), ..Default::default() };
+    assert!(m.lame().is_err());
+}
+
+const GARMENTS: &[(&str, &[&str])] = &[
+    ("tshirt", &["hem", "left_sleeve", "neck", "right_sleeve"]),
+    ("skirt", &["hem", "waist"]),
+    ("longsleeve", &["hem", "left_sleeve", "neck", "right_sleeve"]),
+    ("pants", &["left_leg", "right_leg", "waist"]),
+];
+
+#[test]
+fn committed_garments_are_valid_named_and_outside_the_body() {
+    let body = BodyAsset::load(root().join("data/body.msgpack")).unwrap();
+    let q = BodyQuery::new(&body.positions, &body.faces).unwrap();
+    for (name, loops) in GARMENTS {
+        let g = GarmentAsset::load(root().join(format!("data/garments/{name}.msgpack"))).unwrap();
+        let mesh = g.mesh().unwrap();
+        g.weights.validate(mesh.n_vertices(), body.skeleton.len()).unwrap();
+        let mut names = g.loop_names();
+        names.sort();
+        assert_eq!(names, *loops, "{name}");
+        assert_eq!(g.loop_indices().unwrap().len(), mesh.topology().boundary_loops().len(), "{name}: unnamed loops");
+        let inside = q.inside(&g.positions);
+        assert!(
+            inside.is_empty(),
+            "{name}: {} vertices inside the body, e.g. {:?}",
+            inside.len(),
+            &inside[..inside.len().min(5)]
+        );
+    }
+}
+
+#[test]
+fn configs_load_and_frame_zero_is_outside_the_body() {
+    for cfg in ["tshirt", "skirt", "longsleeve", "pants"] {
+        let scene = Scene::load(root().join(format!("configs/{cfg}.toml"))).unwrap();
+        assert!(!scene.train.is_empty() && !scene.test.is_empty(), "{cfg}: needs a train/test split");
+        for m in scene.train.iter().chain(&scene.test) {
+            assert!(
+                scene.train.iter().filter(|t| t.name == m.name).count()
+                    + scene.test.iter().filter(|t| t.name == m.name).count()
+                    == 1
+            );
+        }
+        scene.hole_selection().unwrap();
+        let m = &scene.test[0];
+        let st = scene.initial_state(m).unwrap();
+        assert_eq!(st.x, st.x_prev);
+        assert_eq!(st.body, st.body_prev);
+        let q = BodyQuery::new(&st.body, &scene.body.faces).unwrap();
+        let inside = q.inside(&st.x);
+        assert!(inside.is_empty(), "{cfg}: {} garment vertices inside the body at frame 0", inside.len());
+    }
+}
