@@ -361,8 +361,16 @@ impl CutMesh {
                 let k = fv.iter().position(|&x| x == node).unwrap_or(0);
                 return (k as f64, k);
             }
-            // On the side between corners k and k+1: the opposite corner has weight ~0.
-            let k = (0..3).min_by(|&i, &j| b[(i + 2) % 3].total_cmp(&b[(j + 2) % 3])).unwrap_or(0);
+            // On the side between corners k and k+1, decided by the edge's identity (the
+            // weights alone are ambiguous when the crossing sits exactly at a corner).
+            let i = ((node - nv) / 2) as usize;
+            let [ea, eb] = mesh.topology().edges()[inter.points[i].edge as usize];
+            let k = (0..3)
+                .find(|&k| {
+                    let (p, q) = (fv[k], fv[(k + 1) % 3]);
+                    (p == ea && q == eb) || (p == eb && q == ea)
+                })
+                .unwrap_or(0);
             // Strictly inside the side, so that corners order before and after it.
             let frac = b[(k + 1) % 3].clamp(1e-12, 1.0 - 1e-12);
             (k as f64 + frac, k)
@@ -389,15 +397,16 @@ impl CutMesh {
                     let dir = [d[0] - o[0], d[1] - o[1]];
                     -(out[0] * dir[1] - out[1] * dir[0]).atan2(out[0] * dir[0] + out[1] * dir[1])
                 } else {
-                    // Edge nodes at the same position: order them along the global edge
-                    // direction, so that both faces of the edge agree.
+                    // Edge nodes at the same position (exactly coincident crossings): chords
+                    // of a planar cut nest, so the node whose chord ends farther along the
+                    // perimeter (counterclockwise) comes first. Exact ties in that too are
+                    // ordered along the global edge direction, so both faces agree.
+                    let far = c_other_end(c, at_start);
+                    let d = if is_perimeter(far) { (perim_pos(far).0 - s).rem_euclid(3.0) } else { 0.0 };
                     let i = ((node - nv) / 2) as usize;
                     let [a, _] = mesh.topology().edges()[inter.points[i].edge as usize];
-                    if fv[k] == a {
-                        node as f64
-                    } else {
-                        -(node as f64)
-                    }
+                    let along = if fv[k] == a { node as f64 } else { -(node as f64) };
+                    -d * 1e12 + along * 1e-3
                 };
                 events.push(Event { s, tie, node, chord: Some((ci, at_start)) });
             }
@@ -512,6 +521,15 @@ impl CutMesh {
     fn push_whole(&mut self, face: u32, fv: [u32; 3]) {
         let cycle = (0..3).map(|k| (fv[k], EdgeTag::Perimeter { slot: k as u8 })).collect();
         self.pieces.push(Piece { face, cycles: vec![cycle] });
+    }
+}
+
+/// The node at the other end of a chord.
+fn c_other_end(c: &[(u32, u32)], at_start: bool) -> u32 {
+    if at_start {
+        c[c.len() - 1].0
+    } else {
+        c[0].0
     }
 }
 

@@ -77,3 +77,11 @@ fn crossing_face_pairs_match_libigl_on_generic_meshes() {
         assert_eq!(ours, theirs, "{name}");
     }
 }
+
+#[test]
+fn grid_made_fixtures_match_libigl_too() {
+    // Exact degeneracies everywhere (lattice contacts, a mirror-symmetric sphere pair).
+    for name in ["boxes_overlap_grid", "icospheres_overlap_grid", "bent_tube_grid", "sleeve_torso_grid"] {
+        check(name, 1e-6);
+    }
+}

@@ -139,14 +139,13 @@ fn gradient_has_no_net_force_or_torque() {
     }
 }
 
-/// Known limitation: when several crossings of one edge coincide exactly (box edges passing
-/// exactly through the other box's grid lines), the order of those points along the edge is
-/// not yet decided symbolically; the cut can then be inconsistent. It must never be a
-/// silent wrong answer: either the exact value or a reported skip.
+/// Known limitation: exactly coplanar overlapping faces (boxes sharing face planes) give
+/// interior loops whose host piece is found by a float point-in-polygon test, which is
+/// unreliable when every point lies on the face's lines. The answer must never be a silent
+/// wrong one: either the exact value or a reported skip.
 #[test]
-fn coincident_crossings_are_exact_or_reported() {
-    // Coincident crossings along edges, and exactly coplanar overlapping faces.
-    for (offset, n) in [(Vec3::new(0.5, 0.5, 0.5), 4), (Vec3::new(0.5, 0.5, 0.5), 2), (Vec3::new(0.0, 0.5, 0.0), 2)] {
+fn coplanar_overlaps_are_exact_or_reported() {
+    for (offset, n) in [(Vec3::new(0.0, 0.5, 0.0), 1), (Vec3::new(0.0, 0.5, 0.0), 2), (Vec3::new(0.25, 0.5, 0.0), 2)] {
         let m = two_boxes(offset, n);
         let p = pen(&m, &GiaOptions::default());
         let d = &p.diagnostics;
