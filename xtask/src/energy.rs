@@ -1,0 +1,99 @@
+//! `cargo xtask energy`: the energy of a predicted frame, term by term, in joules.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+
+use senc_energy::{EnergyConfig, EnergyModel};
+use senc_geom::obj::{read_obj, ObjData};
+use senc_geom::{TriMesh, Vec3};
+
+/// Command-line arguments of `cargo xtask energy`.
+pub struct Args {
+    /// Rest mesh.
+    pub garment: PathBuf,
+    /// x[t+1].
+    pub state: PathBuf,
+    /// x[t].
+    pub prev: Option<PathBuf>,
+    /// x[t−1].
+    pub prev2: Option<PathBuf>,
+    /// Body (static: the same at t and t+1).
+    pub body: Option<PathBuf>,
+    /// Energy config (TOML, or JSON by extension).
+    pub config: Option<PathBuf>,
+    /// Print one JSON object.
+    pub json: bool,
+}
+
+fn read_state(path: &Path, rest: &TriMesh, what: &str) -> Result<Vec<Vec3>> {
+    let data = ObjData::read(path).with_context(|| format!("reading {what}"))?;
+    if data.positions.len() != rest.n_vertices() || data.faces != rest.faces() {
+        bail!(
+            "{what} {} has {} vertices and {} faces but the garment has {} and {}; states must use the rest mesh's vertices and faces",
+            path.display(),
+            data.positions.len(),
+            data.faces.len(),
+            rest.n_vertices(),
+            rest.n_faces()
+        );
+    }
+    Ok(data.positions)
+}
+
+fn read_config(path: &Path) -> Result<EnergyConfig> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading config {}", path.display()))?;
+    let config = if path.extension().is_some_and(|e| e == "json") {
+        serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("config {}: {e}", path.display()))?
+    } else {
+        toml::from_str(&text)
+            .map_err(|e| anyhow::anyhow!("config {}: {}", path.display(), e.to_string().replace('\n', " ")))?
+    };
+    Ok(config)
+}
+
+/// Runs the command.
+pub fn run(args: &Args) -> Result<()> {
+    let rest = read_obj(&args.garment).with_context(|| format!("reading garment {}", args.garment.display()))?;
+    let mut config = match &args.config {
+        Some(p) => read_config(p)?,
+        None => EnergyConfig::default(),
+    };
+    let next = read_state(&args.state, &rest, "state")?;
+    let cur = match &args.prev {
+        Some(p) => read_state(p, &rest, "--prev")?,
+        None => {
+            // No history: no inertia term.
+            config.inertia = false;
+            next.clone()
+        }
+    };
+    let prev = match &args.prev2 {
+        Some(p) => read_state(p, &rest, "--prev2")?,
+        None => cur.clone(),
+    };
+    if args.prev2.is_some() && args.prev.is_none() {
+        bail!("--prev2 needs --prev");
+    }
+    let body = match &args.body {
+        Some(p) => Some(read_obj(p).with_context(|| format!("reading body {}", p.display()))?),
+        None => None,
+    };
+    let model = EnergyModel::new(&rest, &config, body.as_ref())?;
+    let frame = model.frame(&cur, &prev, body.as_ref().map(|b| (b.positions(), b.positions())))?;
+    let breakdown = frame.evaluate(&next, None)?;
+    if args.json {
+        let mut obj = serde_json::Map::new();
+        for (name, e) in &breakdown.terms {
+            obj.insert((*name).to_string(), serde_json::json!(e));
+        }
+        obj.insert("total".into(), serde_json::json!(breakdown.total));
+        println!("{}", serde_json::Value::Object(obj));
+    } else {
+        for (name, e) in &breakdown.terms {
+            println!("{name:>16}  {e:>14.6e} J");
+        }
+        println!("{:>16}  {:>14.6e} J", "total", breakdown.total);
+    }
+    Ok(())
+}
