@@ -18,7 +18,6 @@ use anyhow::Result;
 use clap::{CommandFactory, Parser, Subcommand};
 
 mod check_mesh;
-
 mod data;
 mod energy;
 mod fit;
