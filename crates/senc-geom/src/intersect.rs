@@ -165,9 +165,95 @@ struct PairResult {
     inconsistent: bool,
 }
 
+/// Float plane of a face for the conservative side filter: a point `v` is certainly on the
+/// side `sign(n · (v − p))` when `(n · (v − p))² > tol2 · |v − p|²`. The tolerance bounds
+/// the rounding of the cross and dot products (a few ulp of `|q−p| |r−p| |v−p|`; we use
+/// 1e-13, far above it), so the filter never contradicts the exact predicate.
+#[derive(Clone, Copy)]
+struct FacePlane {
+    p: Vec3,
+    n: Vec3,
+    tol2: f64,
+}
+
+fn face_planes(mesh: &TriMesh) -> Vec<FacePlane> {
+    (0..mesh.n_faces())
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(|f| {
+            let [p, q, r] = mesh.triangle(f);
+            let (a, b) = (q - p, r - p);
+            let tol = 1e-13 * a.norm() * b.norm();
+            FacePlane { p, n: a.cross(&b), tol2: tol * tol }
+        })
+        .collect()
+}
+
+/// Side of `v` relative to the plane when the float evaluation is certain: `Some(true)` on
+/// the positive side, `Some(false)` on the negative side, `None` when too close to tell.
+#[inline]
+fn certain_side(plane: &FacePlane, v: Vec3) -> Option<bool> {
+    let d = v - plane.p;
+    let s = plane.n.dot(&d);
+    if s * s > plane.tol2 * d.norm_squared() && s.is_finite() {
+        Some(s > 0.0)
+    } else {
+        None
+    }
+}
+
+/// Whether all given points are certainly on one side of the plane.
+#[inline]
+fn certainly_one_side(plane: &FacePlane, pts: &[Vec3]) -> bool {
+    let mut side = None;
+    for &v in pts {
+        match (certain_side(plane, v), side) {
+            (None, _) => return false,
+            (Some(s), None) => side = Some(s),
+            (Some(s), Some(t)) if s != t => return false,
+            _ => {}
+        }
+    }
+    true
+}
+
+/// Cheap float rejection: the (non-shared) vertices of one face are certainly on one side
+/// of the other face's plane. Never rejects a pair the exact test would accept.
+fn quick_reject(mesh: &TriMesh, planes: &[FacePlane], f: u32, g: u32) -> bool {
+    let fv = mesh.faces()[f as usize];
+    let gv = mesh.faces()[g as usize];
+    let pos = mesh.positions();
+    let mut own_f = [Vec3::zeros(); 3];
+    let mut own_g = [Vec3::zeros(); 3];
+    let (mut nf, mut ng) = (0, 0);
+    for k in 0..3 {
+        if !gv.contains(&fv[k]) {
+            own_f[nf] = pos[fv[k] as usize];
+            nf += 1;
+        }
+        if !fv.contains(&gv[k]) {
+            own_g[ng] = pos[gv[k] as usize];
+            ng += 1;
+        }
+    }
+    let f_clear = certainly_one_side(&planes[g as usize], &own_f[..nf]);
+    let g_clear = certainly_one_side(&planes[f as usize], &own_g[..ng]);
+    if nf == 3 {
+        // No shared vertex: one triangle wholly on one side of the other's plane.
+        f_clear || g_clear
+    } else {
+        // Shared vertex: only an opposite edge can cross; reject when neither can.
+        f_clear && g_clear
+    }
+}
+
 fn narrow_phase(mesh: &TriMesh, pairs: &[[u32; 2]]) -> SelfIntersections {
-    let results: Vec<PairResult> =
-        pairs.par_iter().with_min_len(256).filter_map(|&[f, g]| test_pair(mesh, f, g)).collect();
+    let planes = face_planes(mesh);
+    let results: Vec<PairResult> = pairs
+        .par_iter()
+        .with_min_len(256)
+        .filter_map(|&[f, g]| if quick_reject(mesh, &planes, f, g) { None } else { test_pair(mesh, f, g) })
+        .collect();
     let topo = mesh.topology();
     let mut keys: Vec<(u32, u32)> = Vec::with_capacity(results.len() * 2);
     for r in &results {
@@ -229,8 +315,15 @@ fn sorted(a: u32, b: u32) -> [u32; 2] {
 fn test_pair(mesh: &TriMesh, f: u32, g: u32) -> Option<PairResult> {
     let fv = mesh.faces()[f as usize];
     let gv = mesh.faces()[g as usize];
-    let shared: Vec<u32> = fv.iter().copied().filter(|v| gv.contains(v)).collect();
-    match shared.len() {
+    let mut shared = [0u32; 3];
+    let mut n_shared = 0;
+    for &v in &fv {
+        if gv.contains(&v) {
+            shared[n_shared] = v;
+            n_shared += 1;
+        }
+    }
+    match n_shared {
         0 => {
             // Early out: all of one triangle strictly on one side of the other's plane.
             let side = |t: [u32; 3], v: u32| sos(mesh, [t[0], t[1], t[2], v]);

@@ -78,15 +78,33 @@ fn perturbed_sign(p: [Vec3; 4], idx: [u32; 4]) -> Ordering {
 /// matrix (rows in argument order, columns x, y, z, 1) with row `rank[r]` replaced by the unit
 /// row `e_c` for each `(r, c)` in the term.
 fn term_sign(p: &[Vec3; 4], rank: &[usize; 4], term: &[(u8, u8)]) -> i32 {
-    // Rows and columns replaced, in term order.
-    let unit_rows: Vec<usize> = term.iter().map(|&(r, _)| rank[r as usize]).collect();
-    let unit_cols: Vec<usize> = term.iter().map(|&(_, c)| c as usize).collect();
-    let rest_rows: Vec<usize> = (0..4).filter(|r| !unit_rows.contains(r)).collect();
-    let rest_cols: Vec<usize> = (0..4).filter(|c| !unit_cols.contains(c)).collect();
+    // Rows and columns replaced, in term order; the rest ascending. No allocation: this
+    // runs for every exact zero on grid-made meshes.
+    let k = term.len();
+    let mut row_perm = [0usize; 4];
+    let mut col_perm = [0usize; 4];
+    let (mut used_rows, mut used_cols) = ([false; 4], [false; 4]);
+    for (i, &(r, c)) in term.iter().enumerate() {
+        row_perm[i] = rank[r as usize];
+        col_perm[i] = c as usize;
+        used_rows[row_perm[i]] = true;
+        used_cols[col_perm[i]] = true;
+    }
+    let (mut nr, mut nc) = (k, k);
+    for x in 0..4 {
+        if !used_rows[x] {
+            row_perm[nr] = x;
+            nr += 1;
+        }
+        if !used_cols[x] {
+            col_perm[nc] = x;
+            nc += 1;
+        }
+    }
     // det(M') = sgn(row order) · sgn(col order) · det(minor), the unit block moved first.
-    let row_perm: Vec<usize> = unit_rows.iter().chain(&rest_rows).copied().collect();
-    let col_perm: Vec<usize> = unit_cols.iter().chain(&rest_cols).copied().collect();
     let sign = parity(&row_perm) * parity(&col_perm);
+    let rest_rows = &row_perm[k..];
+    let rest_cols = &col_perm[k..];
     let minor = match rest_rows.len() {
         // Columns left: two coordinates and the ones column: an exact orient2d.
         3 => {
