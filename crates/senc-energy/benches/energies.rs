@@ -61,6 +61,20 @@ fn energies(c: &mut Criterion) {
             }),
         ),
         ("repulsion", config.clone()),
+        (
+            "stretching_bending_gravity",
+            only(&|c| {
+                c.inertia = false;
+                c.external_acceleration = [0.0; 3];
+            }),
+        ),
+        (
+            "stretching_inertia_gravity",
+            only(&|c| {
+                c.material.bending_stiffness = 0.0;
+                c.external_acceleration = [0.0; 3];
+            }),
+        ),
     ];
     for (name, cfg) in cases {
         let m = EnergyModel::new(&rest, &cfg, None).unwrap();
