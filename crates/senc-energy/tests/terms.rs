@@ -320,8 +320,7 @@ fn self_collision_and_area_through_gia() {
     let x: Vec<Vec3> =
         rest.positions().iter().map(|p| if p.y > 0.15 { p - Vec3::new(0.0, 0.55, 0.0) } else { *p }).collect();
     let x = perturb(&x, 1e-4, 12);
-    let mut c = EnergyConfig::default();
-    c.area_weight = 10.0;
+    let c = EnergyConfig { area_weight: 10.0, ..Default::default() };
     let model = EnergyModel::new(&rest, &c, None).unwrap();
     let f = model.frame(&x, &x, None).unwrap();
     let b = match f.evaluate(&x, None) {
