@@ -131,6 +131,16 @@ impl Closure {
         &self.open_holes
     }
 
+    /// For each face of the closed mesh, 0 for an original face and `k + 1` for a face of
+    /// the fan of centroid `k` (see `intersect::SelfIntersector::with_groups`).
+    pub fn fan_groups(&self) -> Vec<u32> {
+        let mut g = vec![0u32; self.n_original_faces];
+        for (k, c) in self.centroids.iter().enumerate() {
+            g.extend(std::iter::repeat_n(k as u32 + 1, c.loop_vertices.len()));
+        }
+        g
+    }
+
     /// Whether nothing was closed.
     pub fn is_identity(&self) -> bool {
         self.centroids.is_empty()

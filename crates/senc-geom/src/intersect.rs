@@ -92,6 +92,8 @@ pub struct SelfIntersector {
     workspace: BvhWorkspace,
     n_faces: usize,
     pairs: Vec<[u32; 2]>,
+    /// Faces with the same nonzero group are never tested against each other.
+    groups: Vec<u32>,
 }
 
 impl std::fmt::Debug for SelfIntersector {
@@ -116,14 +118,29 @@ impl SelfIntersector {
             workspace: BvhWorkspace::default(),
             n_faces: mesh.n_faces(),
             pairs: Vec::new(),
+            groups: Vec::new(),
         }
+    }
+
+    /// Faces sharing a nonzero `groups[f]` are not tested against each other. Used for the
+    /// fan caps of closed holes: a fan's triangles share its centroid and are (nearly)
+    /// coplanar, so testing them against each other is all exact-zero work and could only
+    /// report crossings of the virtual cap with itself. Fans are still tested against every
+    /// other face.
+    pub fn with_groups(mut self, groups: Vec<u32>) -> Self {
+        self.groups = groups;
+        self
     }
 
     /// Crossings of `mesh` with itself. If `mesh` has the faces this intersector was built
     /// for, the BVH is refit to the new positions; otherwise it is rebuilt.
     pub fn find(&mut self, mesh: &TriMesh) -> SelfIntersections {
         if mesh.n_faces() != self.n_faces {
+            let groups = std::mem::take(&mut self.groups);
             *self = Self::new(mesh);
+            if groups.len() == mesh.n_faces() {
+                self.groups = groups;
+            }
         } else {
             for f in 0..mesh.n_faces() {
                 self.bvh.insert_or_update_partially(face_aabb(mesh, f), f as u32, 0.0);
@@ -133,8 +150,13 @@ impl SelfIntersector {
         self.pairs.clear();
         let pairs = &mut self.pairs;
         let faces = mesh.faces();
+        let rings = embedded_rings(mesh);
+        let groups = &self.groups;
+        let same_group =
+            |a: u32, b: u32| !groups.is_empty() && groups[a as usize] != 0 && groups[a as usize] == groups[b as usize];
         self.bvh.traverse_bvtt_single_tree::<false>(&mut self.workspace, &mut |a, b| {
-            if a != b && !shares_edge(faces[a as usize], faces[b as usize]) {
+            let (fa, fb) = (faces[a as usize], faces[b as usize]);
+            if a != b && !shares_edge(fa, fb) && !same_group(a, b) && !shared_vertex_is_flat(fa, fb, &rings) {
                 pairs.push([a.min(b), a.max(b)]);
             }
         });
@@ -145,6 +167,90 @@ impl SelfIntersector {
 /// One-shot self-intersection (builds a BVH; use [`SelfIntersector`] across frames).
 pub fn self_intersections(mesh: &TriMesh) -> SelfIntersections {
     SelfIntersector::new(mesh).find(mesh)
+}
+
+/// Whether `f` and `g` share exactly one vertex whose ring of faces is embedded (see
+/// [`embedded_rings`]); such a pair cannot cross.
+fn shared_vertex_is_flat(f: [u32; 3], g: [u32; 3], rings: &[bool]) -> bool {
+    let mut shared = None;
+    for v in f {
+        if g.contains(&v) {
+            if shared.is_some() {
+                return false;
+            }
+            shared = Some(v);
+        }
+    }
+    shared.is_some_and(|v| rings[v as usize])
+}
+
+/// For each vertex, whether its ring of faces projects without overlap onto the plane normal
+/// to the ring's summed normal: every face spans a wedge around the vertex of angle in
+/// (1e-9, π − 1e-9), the faces form one fan (closed, or one open chain), and the wedges add
+/// up to one turn (closed ring) or less (open chain). The
+/// projection of face `(s, a, b)` lies inside its wedge, so two faces of an embedded ring
+/// that share only `s` have disjoint projections and cannot cross: the broad phase drops
+/// them before any predicate. The margins are far above the rounding of the angles, so the
+/// test never drops a pair the exact predicates would report. This removes most pairs on
+/// smooth or flat (even exactly coplanar) tessellations, where exact predicates are slow.
+pub fn embedded_rings(mesh: &TriMesh) -> Vec<bool> {
+    let topo = mesh.topology();
+    let pos = mesh.positions();
+    let faces = mesh.faces();
+    (0..mesh.n_vertices() as u32)
+        .into_par_iter()
+        .with_min_len(512)
+        .map(|s| {
+            let ring = topo.vertex_faces(s);
+            if ring.is_empty() {
+                return false;
+            }
+            let n: Vec3 = ring.iter().map(|&f| mesh.face_normal_scaled(f as usize)).sum();
+            let nn = n.norm();
+            if nn.is_nan() || nn <= 0.0 || !nn.is_finite() {
+                return false;
+            }
+            let n = n / nn;
+            let helper = if n.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
+            let u = n.cross(&helper).normalize();
+            let w = n.cross(&u);
+            let ps = pos[s as usize];
+            let mut total = 0.0;
+            let mut neighbour_count: smallvec::SmallVec<[(u32, u8); 16]> = smallvec::SmallVec::new();
+            for &f in ring {
+                let fv = faces[f as usize];
+                let k = fv.iter().position(|&v| v == s).unwrap_or(0);
+                let (a, b) = (fv[(k + 1) % 3], fv[(k + 2) % 3]);
+                let (da, db) = (pos[a as usize] - ps, pos[b as usize] - ps);
+                let (xa, ya) = (da.dot(&u), da.dot(&w));
+                let (xb, yb) = (db.dot(&u), db.dot(&w));
+                let angle = (xa * yb - ya * xb).atan2(xa * xb + ya * yb);
+                if angle.is_nan() || angle <= 1e-9 || angle >= std::f64::consts::PI - 1e-9 {
+                    return false;
+                }
+                total += angle;
+                for v in [a, b] {
+                    match neighbour_count.iter_mut().find(|e| e.0 == v) {
+                        Some(e) => e.1 += 1,
+                        None => neighbour_count.push((v, 1)),
+                    }
+                }
+            }
+            // One fan only: a closed ring (every neighbour twice) or a single open chain
+            // (exactly two neighbours once); anything else (a pinched vertex) is not used.
+            let n_once = neighbour_count.iter().filter(|e| e.1 == 1).count();
+            if neighbour_count.iter().any(|e| e.1 > 2) || (n_once != 0 && n_once != 2) {
+                return false;
+            }
+            let closed = n_once == 0;
+            let turn = std::f64::consts::TAU;
+            if closed {
+                total < turn + 1e-6
+            } else {
+                total < turn - 1e-6
+            }
+        })
+        .collect()
 }
 
 fn shares_edge(f: [u32; 3], g: [u32; 3]) -> bool {

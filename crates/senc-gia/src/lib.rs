@@ -186,7 +186,7 @@ impl GiaWorkspace {
         let mesh = closure.mesh();
         Self {
             n_faces: mesh.n_faces(),
-            intersector: SelfIntersector::new(mesh),
+            intersector: SelfIntersector::new(mesh).with_groups(closure.fan_groups()),
             mark: Vec::new(),
             touched: Vec::new(),
             nodes: Vec::new(),

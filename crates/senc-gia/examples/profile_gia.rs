@@ -1,0 +1,48 @@
+//! Where the time of one penetration query goes, phase by phase, on the garment benchmark
+//! mesh: `cargo run --release -p senc-gia --example profile_gia`.
+
+use std::time::Instant;
+
+use senc_geom::cut::CutMesh;
+use senc_geom::intersect::SelfIntersector;
+use senc_geom::shapes::garment_benchmark;
+use senc_geom::{close_holes, HoleSelection};
+use senc_gia::{GiaOptions, GiaWorkspace};
+
+fn main() {
+    let closure = close_holes(&garment_benchmark().unwrap(), &HoleSelection::All).unwrap();
+    let mesh = closure.mesh();
+    let reps = 20;
+    let mut ix = SelfIntersector::new(mesh).with_groups(closure.fan_groups());
+    let inter = ix.find(mesh);
+    let t = Instant::now();
+    for _ in 0..reps {
+        std::hint::black_box(ix.find(mesh));
+    }
+    let detect = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
+    let t = Instant::now();
+    for _ in 0..reps {
+        std::hint::black_box(CutMesh::new(mesh, &inter));
+    }
+    let cut = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
+    let mut ws = GiaWorkspace::new(&closure);
+    let t = Instant::now();
+    for _ in 0..reps {
+        std::hint::black_box(ws.analyse(&closure, &inter, &GiaOptions::default()));
+    }
+    let analyse = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
+    let t = Instant::now();
+    let mut pen = None;
+    for _ in 0..reps {
+        pen = Some(ws.penetration(&closure, &GiaOptions::default()).unwrap());
+    }
+    let total = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
+    let pen = pen.unwrap();
+    println!(
+        "faces {} candidate pairs {} intersecting {} | detect {detect:.2} ms, cut {cut:.2} ms, analyse (cut+paths+fill+volume+gradient) {analyse:.2} ms, total {total:.2} ms | volume {:.6e} m³",
+        mesh.n_faces(),
+        inter.n_candidate_pairs,
+        inter.segments.len(),
+        pen.volume
+    );
+}
