@@ -1,5 +1,7 @@
 //! `cargo xtask <command>`: every command senc users run.
 //!
+//! - `volume MESH.obj [--close-holes] [--leave-open N ...] [--json]`: the penetration volume
+//!   (SENC's self-collision energy) with regions, paths, diagnostics and time taken.
 //! - `check-mesh MESH.obj [--close-holes] [--json]`: validate a mesh and print its topology
 //!   (vertices, faces, boundary loops, components, closure).
 //! - `energy --garment REST.obj --state NEXT.obj [--prev CUR.obj --prev2 PREV.obj] [--body BODY.obj]
@@ -22,6 +24,7 @@ mod data;
 mod energy;
 mod fit;
 mod preview;
+mod volume;
 
 #[derive(Parser)]
 #[command(name = "cargo xtask", about = "senc: self-collision-aware neural cloth simulation", version)]
@@ -32,6 +35,26 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Penetration volume of a mesh through itself (GIA).
+    Volume {
+        /// The OBJ file.
+        mesh: PathBuf,
+        /// Close boundary loops with centroid fans first.
+        #[arg(long)]
+        close_holes: bool,
+        /// Boundary loops to leave open (indices as printed by check-mesh), with --close-holes.
+        #[arg(long, num_args = 1..)]
+        leave_open: Vec<usize>,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+        /// Gradient with SENC's fixed barycentric weights instead of the exact one.
+        #[arg(long)]
+        fixed_barycentric: bool,
+        /// Decide the penetrating side by area instead of face count.
+        #[arg(long)]
+        area_rule: bool,
+    },
     /// Energy of a predicted frame x[t+1], term by term (joules).
     Energy {
         /// Rest mesh of the garment (OBJ).
@@ -124,6 +147,16 @@ fn main() -> std::process::ExitCode {
             let _ = Cli::command().print_help();
             println!();
             return std::process::ExitCode::SUCCESS;
+        }
+        Some(Command::Volume { mesh, close_holes, leave_open, json, fixed_barycentric, area_rule }) => {
+            volume::run(&volume::VolumeArgs {
+                mesh: &mesh,
+                close_holes,
+                leave_open: &leave_open,
+                json,
+                fixed_barycentric,
+                area_rule,
+            })
         }
         Some(Command::CheckMesh { mesh, close_holes, json }) => check_mesh::run(&mesh, close_holes, json),
         Some(Command::Energy { garment, state, prev, prev2, body, config, json }) => {
