@@ -145,21 +145,26 @@ impl SelfIntersector {
             for f in 0..mesh.n_faces() {
                 self.bvh.insert_or_update_partially(face_aabb(mesh, f), f as u32, 0.0);
             }
-            self.bvh.refit(&mut self.workspace);
+            self.bvh.refit_parallel(&mut self.workspace);
         }
-        self.pairs.clear();
-        let pairs = &mut self.pairs;
         let faces = mesh.faces();
-        let rings = embedded_rings(mesh);
+        // Parallel traversal; its pairs come in the sequential traversal's order, and the
+        // filter below keeps that order, so the output stays deterministic.
+        let bvh = &self.bvh;
+        let (raw, rings) = rayon::join(|| bvh.traverse_bvtt_single_tree_parallel::<false>(), || embedded_rings(mesh));
         let groups = &self.groups;
         let same_group =
             |a: u32, b: u32| !groups.is_empty() && groups[a as usize] != 0 && groups[a as usize] == groups[b as usize];
-        self.bvh.traverse_bvtt_single_tree::<false>(&mut self.workspace, &mut |a, b| {
-            let (fa, fb) = (faces[a as usize], faces[b as usize]);
-            if a != b && !shares_edge(fa, fb) && !same_group(a, b) && !shared_vertex_is_flat(fa, fb, &rings) {
-                pairs.push([a.min(b), a.max(b)]);
-            }
-        });
+        self.pairs = raw
+            .par_iter()
+            .with_min_len(1024)
+            .filter_map(|&(a, b)| {
+                let (fa, fb) = (faces[a as usize], faces[b as usize]);
+                let keep =
+                    a != b && !shares_edge(fa, fb) && !same_group(a, b) && !shared_vertex_is_flat(fa, fb, &rings);
+                keep.then(|| [a.min(b), a.max(b)])
+            })
+            .collect();
         narrow_phase(mesh, &self.pairs)
     }
 }

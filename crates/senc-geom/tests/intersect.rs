@@ -127,3 +127,12 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn output_does_not_depend_on_the_thread_count() {
+    let m = senc_geom::shapes::fixture("sleeve_torso_jitter").unwrap();
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| self_intersections(&m));
+    let four = rayon::ThreadPoolBuilder::new().num_threads(4).build().unwrap().install(|| self_intersections(&m));
+    assert!(!one.segments.is_empty());
+    assert_eq!(one, four);
+}
