@@ -1,0 +1,120 @@
+//! [`Model`]: the network together with everything needed to use it (its config, the graph
+//! config and the normalisers), the object a checkpoint restores.
+
+use burn::module::Module;
+use burn::tensor::{Device, Tensor};
+use senc_geom::Vec3;
+
+use crate::convert::{f32_tensor, tensor_to_vec3, GraphTensors};
+use crate::graph::{GraphConfig, GraphInputs};
+use crate::network::{ModelConfig, Network};
+use crate::normalizer::Normalizers;
+use crate::ModelError;
+
+/// The trained object: network, sizes, graph construction and normalisers.
+///
+/// Training uses a model on an autodiff device (`Device::flex().autodiff()`), inference a
+/// [`Model::valid`] copy (otherwise every forward records an autodiff graph).
+#[derive(Debug, Clone)]
+pub struct Model {
+    /// The burn module (hand it to the optimiser).
+    pub network: Network,
+    /// Network sizes.
+    pub config: ModelConfig,
+    /// How graphs are built for this model.
+    pub graph: GraphConfig,
+    /// Input and output normalisers.
+    pub normalizers: Normalizers,
+    /// The device the network lives on.
+    pub device: Device,
+}
+
+impl Model {
+    /// A freshly initialised model. `seed` seeds the device's generator before the weights
+    /// are drawn (burn's generator may be global, so concurrent initialisations on other
+    /// threads can interleave; tests that need identical weights share one model instead).
+    /// `graph.coarse_levels` is overwritten by `config.coarse_levels`.
+    pub fn new(config: ModelConfig, mut graph: GraphConfig, seed: u64, device: &Device) -> Self {
+        device.seed(seed);
+        let network = config.init(device);
+        graph.coarse_levels = config.coarse_levels.min(crate::graph::MAX_COARSE_LEVELS);
+        let normalizers = Normalizers::new(graph.coarse_levels);
+        Self { network, config, graph, normalizers, device: device.clone() }
+    }
+
+    /// The same model without autodiff, for inference.
+    pub fn valid(&self) -> Self {
+        Self { network: self.network.valid(), device: self.device.clone().inner(), ..self.clone() }
+    }
+
+    /// Builds the graph of a frame with this model's [`GraphConfig`].
+    pub fn build_graph(&self, frame: &crate::FrameState<'_>) -> Result<GraphInputs, ModelError> {
+        GraphInputs::build(frame, &self.graph)
+    }
+
+    /// Uploads a graph (normalising it) to this model's device.
+    pub fn tensors(&self, graph: &GraphInputs) -> GraphTensors {
+        GraphTensors::new(graph, &self.normalizers, &self.device)
+    }
+
+    /// The predicted acceleration term per cloth vertex, `Δt² a` in metres, so that
+    /// `x[t+1] = 2 x[t] − x[t−1] + forward(..)`.
+    ///
+    /// # Shapes
+    /// `[n_cloth, 3]`, f32, on this model's device (tracked when the device is autodiff).
+    pub fn forward(&self, graph: &GraphInputs) -> Tensor<2> {
+        self.forward_tensors(&self.tensors(graph))
+    }
+
+    /// [`Model::forward`] on an already uploaded graph. `[n_cloth, 3]`.
+    pub fn forward_tensors(&self, g: &GraphTensors) -> Tensor<2> {
+        let out = self.network.forward(g); // [n_cloth, 3], normalised
+        let mean = f32_tensor(&self.normalizers.output.mean(), [1, 3], &self.device);
+        let std = f32_tensor(&self.normalizers.output.std(), [1, 3], &self.device);
+        out * std + mean
+    }
+
+    /// The predicted next cloth positions `x[t+1] = 2 x[t] − x[t−1] + Δt² a` as a tensor
+    /// (tracked when the device is autodiff). `[n_cloth, 3]`.
+    pub fn predict_positions(&self, graph: &GraphInputs, frame: &crate::FrameState<'_>) -> Tensor<2> {
+        let base: Vec<f64> = frame
+            .curr
+            .iter()
+            .zip(frame.prev)
+            .flat_map(|(c, p)| {
+                let b = c * 2.0 - p;
+                [b.x, b.y, b.z]
+            })
+            .collect();
+        let base = f32_tensor(&base, [frame.curr.len(), 3], &self.device);
+        base + self.forward(graph)
+    }
+
+    /// One training prediction: the tracked acceleration tensor `[n_cloth, 3]` and the next
+    /// positions in f64, `x[t+1] = 2 x[t] − x[t−1] + a` (the f32 `a` read back once).
+    ///
+    /// Feed `∂E/∂x[t+1]` at those positions to [`crate::surrogate_backward`] together with the
+    /// tensor: `x[t+1]` and `a` differ by a constant, so they have the same parameter gradient.
+    pub fn predict(
+        &self,
+        graph: &GraphInputs,
+        frame: &crate::FrameState<'_>,
+    ) -> Result<(Tensor<2>, Vec<Vec3>), ModelError> {
+        let accel = self.forward(graph);
+        let a = tensor_to_vec3(accel.clone().detach())?;
+        if a.len() != frame.curr.len() {
+            return Err(ModelError::LengthMismatch { what: "cloth x[t]", got: frame.curr.len(), expected: a.len() });
+        }
+        let next = frame.curr.iter().zip(frame.prev).zip(a).map(|((c, p), a)| c * 2.0 - p + a).collect();
+        Ok((accel, next))
+    }
+
+    /// Inference in f64: next cloth positions for one frame (graph built, network run on a
+    /// [`Model::valid`] copy of itself if the device is autodiff, result read back).
+    pub fn step(&self, frame: &crate::FrameState<'_>) -> Result<Vec<Vec3>, ModelError> {
+        let graph = self.build_graph(frame)?;
+        let accel = if self.device.is_autodiff() { self.valid().forward(&graph) } else { self.forward(&graph) };
+        let accel = tensor_to_vec3(accel)?;
+        Ok(frame.curr.iter().zip(frame.prev).zip(accel).map(|((c, p), a)| c * 2.0 - p + a).collect())
+    }
+}
