@@ -90,7 +90,7 @@ impl SyntheticScene {
             (0..n * n).map(|k| Vec3::new((k % n) as f64 * h - half, 0.0, (k / n) as f64 * h - half)).collect();
         let rest = TriMesh::new(rest_pos.clone(), grid_faces(n)).expect("a regular grid is a valid mesh");
         // Sphere radius so that the folded half-width spans about 60 degrees.
-        let radius = (half * 0.5 / 0.5236).max(0.05);
+        let radius = (half * 0.5 / std::f64::consts::FRAC_PI_6).max(0.05);
         let mut jitter = |s: f64| Vec3::new(rng.random_range(-s..s), rng.random_range(-s..s), rng.random_range(-s..s));
         let curr: Vec<Vec3> = rest_pos
             .iter()
