@@ -10,6 +10,9 @@
 //! - `data [--out data] [--work DIR]`: rebuild `data/` from the registry packages.
 //! - `fit --garment X.obj [--scale S] [--no-align]`: fit a garment onto the senc body.
 //! - `preview --config C.toml --frame N --out F.png [--motion NAME]`: draw body and garment.
+//! - `train --config C.toml [--out DIR] [--resume]`: both training phases (senc-train).
+//! - `eval --checkpoint DIR [--compare DIR ...] [--out reports]`: Table 1 and error against run time.
+//! - `simulate --checkpoint DIR --motion NAME [--wind X,Y,Z] --out DIR`: OBJ sequence.
 //!
 //! Later issues add `volume`, `energy`, `data`, `fit`, `preview`, `train`, `eval`,
 //! `simulate` and `bench`. `cargo xtask` with no arguments lists what exists.
@@ -24,6 +27,9 @@ mod data;
 mod energy;
 mod fit;
 mod preview;
+mod simulate;
+mod train;
+mod eval;
 mod volume;
 
 #[derive(Parser)]
@@ -120,6 +126,57 @@ enum Command {
         #[arg(long, default_value_t = 5e-3)]
         margin: f64,
     },
+    /// Train both phases (HOOD schedule; SENC phase 2 with self-collision) from a config.
+    Train {
+        /// Config (TOML with [scene] and optional [train], [model], [energy], [eval]).
+        #[arg(long, default_value = "configs/tshirt.toml")]
+        config: PathBuf,
+        /// Output directory (checkpoints phase1/, phase2/, latest/ and losses.csv).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Continue from OUT/latest exactly where it stopped.
+        #[arg(long)]
+        resume: bool,
+        /// Stop after this many training iterations (both phases counted); resume later.
+        #[arg(long)]
+        stop_after: Option<u64>,
+    },
+    /// Table 1 and the error against run time for one or more checkpoints.
+    Eval {
+        /// Checkpoint directory (e.g. runs/tshirt/phase2).
+        #[arg(long)]
+        checkpoint: PathBuf,
+        /// More checkpoints, one row each.
+        #[arg(long, num_args = 1..)]
+        compare: Vec<PathBuf>,
+        /// Config whose scene, energy and [eval] settings to use (default: each checkpoint's own).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Output directory for table1.md/.csv/.json and runtime.md/.csv/.svg.
+        #[arg(long, default_value = "reports")]
+        out: PathBuf,
+    },
+    /// Roll a trained model out on a motion and write an OBJ sequence.
+    Simulate {
+        /// Checkpoint directory.
+        #[arg(long)]
+        checkpoint: PathBuf,
+        /// Motion name (e.g. boxing_toes).
+        #[arg(long)]
+        motion: String,
+        /// Config (default: the checkpoint's own).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// External acceleration X,Y,Z in m/s² (wind).
+        #[arg(long, allow_hyphen_values = true)]
+        wind: Option<String>,
+        /// Frames to simulate.
+        #[arg(long, default_value_t = 90)]
+        frames: usize,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Draw the body and the garment at a frame of a scene motion (PNG).
     Preview {
         /// Scene config (TOML with a [scene] table).
@@ -165,6 +222,18 @@ fn main() -> std::process::ExitCode {
         Some(Command::Data { out, work }) => data::run(&out, &work),
         Some(Command::Fit { garment, body, out, scale, no_align, margin }) => {
             fit::run(&garment, &body, out, scale, no_align, margin)
+        }
+        Some(Command::Train { config, out, resume, stop_after }) => {
+            let out = out.unwrap_or_else(|| {
+                PathBuf::from("runs").join(config.file_stem().unwrap_or_default())
+            });
+            train::run(&config, &out, resume, stop_after)
+        }
+        Some(Command::Eval { checkpoint, compare, config, out }) => {
+            eval::run(&checkpoint, &compare, config.as_deref(), &out)
+        }
+        Some(Command::Simulate { checkpoint, motion, config, wind, frames, out }) => {
+            simulate::run(&checkpoint, config.as_deref(), &motion, wind.as_deref(), frames, &out)
         }
         Some(Command::Preview { config, frame, motion, out, size }) => {
             preview::run(&config, frame, motion.as_deref(), &out, size)

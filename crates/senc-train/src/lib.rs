@@ -1,5 +1,21 @@
-//! senc-train: scenes, the two-phase autoregressive trainer and Table-1 evaluation.
+//! senc-train: the two-phase autoregressive trainer, Table-1 evaluation and rollouts.
 //!
-//! It will own scene configs (garment, body, motion, material, external force, holes to
-//! close), the training loop with HOOD's schedule and SENC's two phases, checkpoints with
-//! resume, and the evaluation metrics. Not built yet: see issues 5 and 7.
+//! - [`config`]: the `[train]`, `[model]`, `[energy]`, `[eval]` tables of a scene config.
+//! - [`garment`]: a scene with its proxy body (body vertices near the garment).
+//! - [`trainer`]: HOOD's schedule and SENC's two phases, checkpoints and exact resume.
+//! - [`clip`]: global gradient-norm clipping.
+//! - [`rollout`]: running a trained model on a motion (evaluation, simulation).
+//! - [`eval`]: Table-1 metrics and the error-against-run-time comparison.
+
+pub mod clip;
+pub mod config;
+pub mod error;
+pub mod eval;
+pub mod garment;
+pub mod rollout;
+pub mod trainer;
+
+pub use config::{EvalConfig, ModelSection, RunConfig, SelfEdgeMode, TrainConfig};
+pub use error::TrainError;
+pub use garment::Garment;
+pub use trainer::{Progress, StepReport, Trainer};

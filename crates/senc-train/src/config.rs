@@ -1,0 +1,344 @@
+//! The training config: the `[train]`, `[model]`, `[energy]` and `[eval]` tables of a scene
+//! config file (the `[scene]` table belongs to senc-scene). Every key has a default, so a
+//! plain scene file trains with the defaults below. Unknown keys are refused, naming them.
+//!
+//! ```toml
+//! [train]
+//! seed = 0
+//! phase1_iterations = 2000     # without the self-collision energy
+//! phase2_iterations = 1000     # from phase 1's weights, all energies
+//! [model]
+//! latent = 32
+//! blocks = 4
+//! self_edges = "exclude_mesh"  # "none" (HOOD), "keep_mesh" (ablation)
+//! [energy.self_collision]
+//! weight = 30000.0             # phase 2 only; 0 gives the HOOD-like baseline
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use senc_energy::EnergyConfig;
+use senc_model::{GraphConfig, ModelConfig, SelfEdges};
+use serde::{Deserialize, Serialize};
+
+use crate::error::TrainError;
+
+/// The `[train]` table: schedule, optimiser, randomisation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrainConfig {
+    /// Seed of every random choice (windows, materials, forces, noise, weights). Default 0.
+    pub seed: u64,
+    /// Iterations that only collect normaliser statistics, before phase 1 (HOOD: 100).
+    pub warmup_iterations: u64,
+    /// Optimiser steps of phase 1 (no self-collision, area or repulsion energy).
+    pub phase1_iterations: u64,
+    /// Optimiser steps of phase 2 (all energies of `[energy]`).
+    pub phase2_iterations: u64,
+    /// A checkpoint every this many iterations (and at the end of each phase). Default 100.
+    pub checkpoint_every: u64,
+    /// Base learning rate (HOOD: 5e-5; short CPU runs use more).
+    pub learning_rate: f64,
+    /// Learning rate at step k: `lr · (0.5^⌊k / lr_halving⌋ + 0.01)` (HOOD: 50000).
+    pub lr_halving: u64,
+    /// Global gradient-norm clip (HOOD: 1).
+    pub grad_clip: f64,
+    /// Longest rollout (HOOD: 5).
+    pub rollout_max: usize,
+    /// Rollout length `min(1 + ⌊k / rollout_growth⌋, rollout_max)` (HOOD: 5000).
+    pub rollout_growth: u64,
+    /// σ of the Gaussian noise added to the initial positions, m (HOOD: 3e-3).
+    pub noise_std: f64,
+    /// Probability that a sequence starts at frame 0 with the long first step
+    /// (`[scene] first_step_dt`) from the skinned rest pose.
+    pub first_step_probability: f64,
+    /// Draw each sequence's material from HOOD's ranges (else the scene's material).
+    pub random_material: bool,
+    /// Largest magnitude of the random external acceleration per sequence, m/s² (SENC: 10).
+    pub external_max: f64,
+    /// Body vertices farther than this from every rest garment vertex are left out of the
+    /// graph and the collision queries (a proxy body), m. Default 0.12.
+    pub body_margin: f64,
+    /// Extra scene configs whose `[scene]` garments are sampled per sequence besides this
+    /// file's own (one model for many garments, `all.toml`). Relative to this file.
+    pub scenes: Vec<PathBuf>,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        Self {
+            seed: 0,
+            warmup_iterations: 100,
+            phase1_iterations: 2000,
+            phase2_iterations: 1000,
+            checkpoint_every: 100,
+            learning_rate: 5e-4,
+            lr_halving: 50_000,
+            grad_clip: 1.0,
+            rollout_max: 5,
+            rollout_growth: 500,
+            noise_std: 3e-3,
+            first_step_probability: 0.1,
+            random_material: true,
+            external_max: 10.0,
+            body_margin: 0.12,
+            scenes: Vec::new(),
+        }
+    }
+}
+
+impl TrainConfig {
+    /// Learning rate of global step `k` (HOOD's step decay with a floor).
+    pub fn lr(&self, k: u64) -> f64 {
+        self.learning_rate * (0.5f64.powi((k / self.lr_halving.max(1)) as i32) + 0.01)
+    }
+
+    /// Rollout length at phase iteration `k`.
+    pub fn rollout_len(&self, k: u64) -> usize {
+        ((1 + k / self.rollout_growth.max(1)) as usize).min(self.rollout_max.max(1))
+    }
+}
+
+/// Self-collision edge mode, as written in TOML.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SelfEdgeMode {
+    /// No self-collision edges (HOOD, the baseline, "w/o self-col edge").
+    None,
+    /// SENC's edges: cloth pairs closer than the radius, mesh edges excluded.
+    ExcludeMesh,
+    /// Ablation "w. mesh edge": pairs joined by a mesh edge kept.
+    KeepMesh,
+}
+
+/// The `[model]` table: network size and graph construction.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ModelSection {
+    /// Latent width (HOOD: 128). Default 32 (CPU).
+    pub latent: usize,
+    /// Message-passing blocks (HOOD: 15). Default 4 (CPU).
+    pub blocks: usize,
+    /// Hidden layers per MLP (HOOD: 2). Default 1.
+    pub hidden_layers: usize,
+    /// LayerNorm after every MLP but the decoder.
+    pub layer_norm: bool,
+    /// HOOD's coarse levels (0: none).
+    pub coarse_levels: usize,
+    /// Self-collision edges.
+    pub self_edges: SelfEdgeMode,
+    /// Self-collision edge radius, m (SENC: 0.02).
+    pub self_radius: f64,
+    /// Body edge radius, m (HOOD: 0.03).
+    pub body_radius: f64,
+}
+
+impl Default for ModelSection {
+    fn default() -> Self {
+        Self {
+            latent: 32,
+            blocks: 4,
+            hidden_layers: 1,
+            layer_norm: true,
+            coarse_levels: 0,
+            self_edges: SelfEdgeMode::ExcludeMesh,
+            self_radius: 0.02,
+            body_radius: 0.03,
+        }
+    }
+}
+
+impl ModelSection {
+    /// The network sizes.
+    pub fn model_config(&self) -> ModelConfig {
+        ModelConfig::new()
+            .with_latent(self.latent)
+            .with_blocks(self.blocks)
+            .with_hidden_layers(self.hidden_layers)
+            .with_layer_norm(self.layer_norm)
+            .with_coarse_levels(self.coarse_levels)
+    }
+
+    /// The graph construction.
+    pub fn graph_config(&self) -> GraphConfig {
+        GraphConfig {
+            self_radius: self.self_radius,
+            body_radius: self.body_radius,
+            self_edges: match self.self_edges {
+                SelfEdgeMode::None => SelfEdges::None,
+                SelfEdgeMode::ExcludeMesh => SelfEdges::ExcludeMesh,
+                SelfEdgeMode::KeepMesh => SelfEdges::KeepMesh,
+            },
+            coarse_levels: self.coarse_levels,
+        }
+    }
+}
+
+/// The `[eval]` table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EvalConfig {
+    /// Frames simulated per test motion (after frame 0). Default 90.
+    pub frames: usize,
+    /// Reference-solver iteration budgets of the error-against-run-time curve.
+    pub solver_budgets: Vec<usize>,
+    /// Iterations of the "converged" reference. Default 50.
+    pub converged_iterations: usize,
+    /// Test states (frames of the network's rollout) the error-against-run-time curve uses.
+    pub curve_states: usize,
+}
+
+impl Default for EvalConfig {
+    fn default() -> Self {
+        Self { frames: 90, solver_budgets: vec![1, 2, 4, 8, 16], converged_iterations: 50, curve_states: 5 }
+    }
+}
+
+/// Everything senc-train reads from one config file, plus the file itself.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunConfig {
+    /// The config file (for resolving relative paths and for the record).
+    pub path: PathBuf,
+    /// `[train]`.
+    pub train: TrainConfig,
+    /// `[model]`.
+    pub model: ModelSection,
+    /// `[energy]`: phase 2's energy (phase 1 zeroes self-collision, area and repulsion).
+    /// Its material is replaced per sequence.
+    pub energy: EnergyConfig,
+    /// `[eval]`.
+    pub eval: EvalConfig,
+}
+
+#[derive(Deserialize)]
+struct FileTables {
+    #[serde(default)]
+    train: Option<toml::Value>,
+    #[serde(default)]
+    model: Option<toml::Value>,
+    #[serde(default)]
+    energy: Option<toml::Value>,
+    #[serde(default)]
+    eval: Option<toml::Value>,
+}
+
+fn section<T: for<'de> Deserialize<'de> + Default>(
+    v: Option<toml::Value>,
+    name: &str,
+    path: &Path,
+) -> Result<T, TrainError> {
+    match v {
+        None => Ok(T::default()),
+        Some(v) => v.try_into().map_err(|e: toml::de::Error| TrainError::Config {
+            path: path.to_path_buf(),
+            message: format!("[{name}]: {e}"),
+        }),
+    }
+}
+
+impl RunConfig {
+    /// Parses the tables of `text` (the file `path`).
+    pub fn parse(text: &str, path: &Path) -> Result<Self, TrainError> {
+        let tables: FileTables = toml::from_str(text)
+            .map_err(|e| TrainError::Config { path: path.to_path_buf(), message: e.to_string() })?;
+        let cfg = Self {
+            path: path.to_path_buf(),
+            train: section(tables.train, "train", path)?,
+            model: section(tables.model, "model", path)?,
+            energy: section(tables.energy, "energy", path)?,
+            eval: section(tables.eval, "eval", path)?,
+        };
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Reads a config file.
+    pub fn read(path: impl AsRef<Path>) -> Result<Self, TrainError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|e| TrainError::io(path, e))?;
+        Self::parse(&text, path)
+    }
+
+    /// The scene config files of this run: this file, then `[train] scenes`.
+    pub fn scene_files(&self) -> Vec<PathBuf> {
+        let dir = self.path.parent().unwrap_or(Path::new("."));
+        let mut files = Vec::new();
+        if let Ok(text) = std::fs::read_to_string(&self.path) {
+            if text.lines().any(|l| l.trim() == "[scene]") {
+                files.push(self.path.clone());
+            }
+        }
+        files.extend(self.train.scenes.iter().map(|p| if p.is_relative() { dir.join(p) } else { p.clone() }));
+        files
+    }
+
+    /// Checks the values.
+    pub fn validate(&self) -> Result<(), TrainError> {
+        let bad = |m: String| Err(TrainError::Config { path: self.path.clone(), message: m });
+        let t = &self.train;
+        if !(t.learning_rate.is_finite() && t.learning_rate > 0.0) {
+            return bad(format!("[train] learning_rate = {} must be > 0", t.learning_rate));
+        }
+        if !(t.grad_clip.is_finite() && t.grad_clip > 0.0) {
+            return bad(format!("[train] grad_clip = {} must be > 0", t.grad_clip));
+        }
+        if !(t.noise_std.is_finite() && t.noise_std >= 0.0) {
+            return bad(format!("[train] noise_std = {} must be >= 0", t.noise_std));
+        }
+        if !(t.external_max.is_finite() && t.external_max >= 0.0) {
+            return bad(format!("[train] external_max = {} must be >= 0", t.external_max));
+        }
+        if !(0.0..=1.0).contains(&t.first_step_probability) {
+            return bad(format!("[train] first_step_probability = {} must be in [0, 1]", t.first_step_probability));
+        }
+        if t.checkpoint_every == 0 {
+            return bad("[train] checkpoint_every must be >= 1".into());
+        }
+        if self.model.latent == 0 || self.model.blocks == 0 {
+            return bad("[model] latent and blocks must be >= 1".into());
+        }
+        self.energy.validate().map_err(|e| TrainError::Config { path: self.path.clone(), message: e.to_string() })?;
+        Ok(())
+    }
+
+    /// The energy config of a phase (1 or 2) for a material and external acceleration.
+    pub fn energy_for(&self, phase: u8, material: senc_energy::Material, external: [f64; 3]) -> EnergyConfig {
+        let mut e = self.energy.clone();
+        e.material = material;
+        e.external_acceleration = external;
+        if phase == 1 {
+            e.self_collision.weight = 0.0;
+            e.area_weight = 0.0;
+            e.repulsion.weight = 0.0;
+        }
+        e
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_tables_and_rejects_unknown_keys() {
+        let text = "[scene]\nx = 1\n[train]\nseed = 7\n[model]\nself_edges = \"none\"\n[energy.self_collision]\nweight = 0.0\n";
+        let c = RunConfig::parse(text, Path::new("a.toml")).unwrap();
+        assert_eq!(c.train.seed, 7);
+        assert_eq!(c.model.self_edges, SelfEdgeMode::None);
+        assert_eq!(c.energy.self_collision.weight, 0.0);
+        let e = RunConfig::parse("[train]\nsede = 1\n", Path::new("a.toml")).unwrap_err();
+        assert!(e.to_string().contains("sede"), "{e}");
+    }
+
+    #[test]
+    fn schedules_follow_hood() {
+        let t =
+            TrainConfig { learning_rate: 1.0, lr_halving: 10, rollout_growth: 5, rollout_max: 3, ..Default::default() };
+        assert!((t.lr(0) - 1.01).abs() < 1e-12);
+        assert!((t.lr(10) - 0.51).abs() < 1e-12);
+        assert!((t.lr(25) - 0.26).abs() < 1e-12);
+        assert_eq!(t.rollout_len(0), 1);
+        assert_eq!(t.rollout_len(5), 2);
+        assert_eq!(t.rollout_len(100), 3);
+    }
+}

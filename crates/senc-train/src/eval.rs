@@ -1,0 +1,375 @@
+//! Evaluation: the paper's Table-1 metrics on the test motions, and the error against run
+//! time of the reference solver and the network.
+//!
+//! Per test frame (frames 1.. of each rollout): the penetration volume V (m³) of the
+//! garment after closing the scene's holes (senc-gia), `L_self-col = 100 · |6V|`, and the
+//! share of cloth vertices inside the full body. Speed is graph building plus network
+//! only. The error-against-run-time states are frames of the network's own rollout: from
+//! each, the reference solver (senc-energy, Newton/PCG, the run's phase-2 energy and the
+//! scene's material) runs with several iteration budgets; the "converged" answer uses
+//! `[eval] converged_iterations`. Gap = E(answer) − E(converged), J.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use senc_energy::{solve, EnergyModel, SolverOptions};
+use senc_geom::{close_holes, Closure, Vec3};
+use senc_gia::{GiaOptions, GiaWorkspace};
+use senc_model::burn::tensor::Device;
+use senc_model::{BodyState, FrameState, GraphInputs, Model};
+use senc_scene::BodyQuery;
+use serde::Serialize;
+
+use crate::config::RunConfig;
+use crate::error::TrainError;
+use crate::garment::Garment;
+use crate::rollout::{rollout, Rollout};
+use crate::trainer::{scene_material, CONFIG_FILE};
+
+/// A checkpoint to evaluate, with the row label and the config whose scene it runs on.
+#[derive(Debug, Clone)]
+pub struct Method {
+    /// Row label.
+    pub label: String,
+    /// Checkpoint directory.
+    pub checkpoint: PathBuf,
+    /// Config file (scene, energy, eval settings).
+    pub config: PathBuf,
+}
+
+impl Method {
+    /// A method for `checkpoint`; the config defaults to the one the checkpoint was trained
+    /// with, the label to the checkpoint's run directory name.
+    pub fn new(checkpoint: &Path, config: Option<&Path>) -> Result<Self, TrainError> {
+        let config = match config {
+            Some(c) => c.to_path_buf(),
+            None => {
+                let s = checkpoint.join("source.txt");
+                let text = std::fs::read_to_string(&s).map_err(|e| TrainError::Checkpoint {
+                    path: checkpoint.to_path_buf(),
+                    message: format!("no source.txt ({e}); give --config"),
+                })?;
+                PathBuf::from(text.trim())
+            }
+        };
+        if !checkpoint.join(CONFIG_FILE).exists() && !checkpoint.join(senc_model::checkpoint::META_FILE).exists() {
+            return Err(TrainError::Checkpoint { path: checkpoint.to_path_buf(), message: "not a checkpoint".into() });
+        }
+        let abs = checkpoint.canonicalize().unwrap_or_else(|_| checkpoint.to_path_buf());
+        let run = abs.parent().and_then(|p| p.file_name()).map(|n| n.to_string_lossy().to_string());
+        let phase = abs.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        let label = match run {
+            Some(r) => format!("{r}/{phase}"),
+            None => phase,
+        };
+        Ok(Self { label, checkpoint: checkpoint.to_path_buf(), config })
+    }
+}
+
+/// Table-1 metrics of one method on one garment.
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    /// Method label.
+    pub method: String,
+    /// Garment name.
+    pub garment: String,
+    /// Test frames evaluated.
+    pub frames: usize,
+    /// Mean penetration volume, cm³.
+    pub volume_cm3: f64,
+    /// Mean `L_self-col = 100 · |6V|` (V in m³).
+    pub l_selfcol: f64,
+    /// Percentage of frames with `L_self-col > 0.1`.
+    pub pct_above_0_1: f64,
+    /// Percentage of frames with `L_self-col > 0.01`.
+    pub pct_above_0_01: f64,
+    /// Mean share of cloth vertices inside the body, %.
+    pub body_penetration_pct: f64,
+    /// Frames per second (graph + network).
+    pub fps: f64,
+}
+
+/// One point of the error-against-run-time comparison (averaged over the test states).
+#[derive(Debug, Clone, Serialize)]
+pub struct CurvePoint {
+    /// "solver N it" or the method label.
+    pub method: String,
+    /// Garment name.
+    pub garment: String,
+    /// Milliseconds per frame.
+    pub ms_per_frame: f64,
+    /// Mean energy gap to the converged reference, J.
+    pub energy_gap: f64,
+    /// Mean penetration volume of the answers, cm³.
+    pub volume_cm3: f64,
+}
+
+/// Penetration volumes of garment states.
+pub struct VolumeMeter {
+    closure: Closure,
+    ws: GiaWorkspace,
+    options: GiaOptions,
+}
+
+impl VolumeMeter {
+    /// For the garment's closure (the scene's holes closed).
+    pub fn new(g: &Garment) -> Result<Self, TrainError> {
+        let closure = close_holes(&g.rest, &g.scene.hole_selection()?)?;
+        let ws = GiaWorkspace::new(&closure);
+        Ok(Self { closure, ws, options: GiaOptions::default() })
+    }
+
+    /// Penetration volume of `x`, m³.
+    pub fn volume(&mut self, x: &[Vec3]) -> Result<f64, TrainError> {
+        self.closure.update(x)?;
+        Ok(self.ws.penetration(&self.closure, &self.options)?.volume)
+    }
+}
+
+/// Evaluates one method: Table-1 row per garment and the network's curve points.
+pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
+    let cfg = RunConfig::read(&method.config)?;
+    let g = Garment::load(&method.config, cfg.train.body_margin)?;
+    let model = Model::load(&method.checkpoint, &Device::flex())?;
+    let material = scene_material(&g)?;
+    let ext = Vec3::from(g.scene.config.external_force.acceleration);
+    let mut meter = VolumeMeter::new(&g)?;
+    let (mut vols, mut body_pct) = (Vec::new(), Vec::new());
+    let (mut secs, mut steps) = (0.0, 0);
+    let mut rollouts: Vec<(usize, Rollout)> = Vec::new();
+    if g.scene.test.is_empty() {
+        return Err(TrainError::Invalid(format!(
+            "{}: no test motions in [scene.motions] test",
+            method.config.display()
+        )));
+    }
+    for (mi, motion) in g.scene.test.iter().enumerate() {
+        let r = rollout(&model, &g, motion, cfg.eval.frames, ext, &material)?;
+        secs += r.infer_seconds;
+        steps += r.steps;
+        for (f, x) in r.cloth.iter().enumerate().skip(1) {
+            vols.push(meter.volume(x)?);
+            let body = g.scene.body_at(motion, f)?;
+            let q = BodyQuery::new(&body, &g.scene.body.faces)?;
+            body_pct.push(100.0 * q.inside(x).len() as f64 / x.len() as f64);
+        }
+        rollouts.push((mi, r));
+    }
+    let n = vols.len().max(1) as f64;
+    let ls: Vec<f64> = vols.iter().map(|v| 100.0 * 6.0 * v).collect();
+    let row = Row {
+        method: method.label.clone(),
+        garment: g.name().to_string(),
+        frames: vols.len(),
+        volume_cm3: vols.iter().sum::<f64>() / n * 1e6,
+        l_selfcol: ls.iter().sum::<f64>() / n,
+        pct_above_0_1: 100.0 * ls.iter().filter(|&&l| l > 0.1).count() as f64 / n,
+        pct_above_0_01: 100.0 * ls.iter().filter(|&&l| l > 0.01).count() as f64 / n,
+        body_penetration_pct: body_pct.iter().sum::<f64>() / n,
+        fps: if secs > 0.0 { steps as f64 / secs } else { f64::NAN },
+    };
+    let curve = error_vs_runtime(method, &cfg, &g, &model, &rollouts, &mut meter)?;
+    Ok((row, curve))
+}
+
+fn error_vs_runtime(
+    method: &Method,
+    cfg: &RunConfig,
+    g: &Garment,
+    model: &Model,
+    rollouts: &[(usize, Rollout)],
+    meter: &mut VolumeMeter,
+) -> Result<Vec<CurvePoint>, TrainError> {
+    let material = scene_material(g)?;
+    let ext = g.scene.config.external_force.acceleration;
+    let mut ec = cfg.energy_for(2, material, ext);
+    ec.gravity = g.scene.config.external_force.gravity;
+    ec.dt = g.scene.dt();
+    ec.self_collision.open_holes = g.open_holes.clone();
+    let em = EnergyModel::new(&g.rest, &ec, Some(&g.proxy_mesh))?;
+    let (_, r) = &rollouts[0];
+    let k = cfg.eval.curve_states.max(1).min(r.steps.saturating_sub(1).max(1));
+    let states: Vec<usize> = (0..k).map(|i| 1 + i * (r.steps.saturating_sub(1)) / k).collect();
+    let budgets = &cfg.eval.solver_budgets;
+    let mut acc = vec![(0.0, 0.0, 0.0); budgets.len() + 1];
+    let accel = Vec3::from(g.scene.config.external_force.gravity) + Vec3::from(ext);
+    let mat = senc_model::Material {
+        mu: material.mu,
+        lambda: material.lambda,
+        bending: material.bending_stiffness,
+        density: material.density,
+    };
+    for &s in &states {
+        let (prev, curr) = (&r.cloth[s - 1], &r.cloth[s]);
+        let (bt, bn) = (&r.body[s], &r.body[s + 1]);
+        let fe = em.frame(curr, prev, Some((bt, bn)))?;
+        let x0: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| curr.clone());
+        let conv = SolverOptions { max_iterations: cfg.eval.converged_iterations, ..Default::default() };
+        let (_, rep) = solve(&fe, &x0, &conv)?;
+        let e_star = rep.energy;
+        for (i, &b) in budgets.iter().enumerate() {
+            let (x, rep) = solve(&fe, &x0, &SolverOptions { max_iterations: b, ..Default::default() })?;
+            acc[i].0 += rep.seconds * 1e3;
+            acc[i].1 += rep.energy - e_star;
+            acc[i].2 += meter.volume(&x)? * 1e6;
+        }
+        let t0 = Instant::now();
+        let frame = FrameState {
+            rest: &g.rest,
+            prev,
+            curr,
+            material: mat,
+            accel,
+            body: Some(BodyState { faces: g.body_faces(), curr: bt, next: bn }),
+        };
+        let graph = GraphInputs::build(&frame, &model.graph)?;
+        let a = senc_model::tensor_to_vec3(model.forward(&graph))?;
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let x: Vec<Vec3> = curr.iter().zip(prev).zip(a).map(|((c, p), a)| c * 2.0 - p + a).collect();
+        let e = fe.evaluate(&x, None)?.total;
+        let last = budgets.len();
+        acc[last].0 += ms;
+        acc[last].1 += e - e_star;
+        acc[last].2 += meter.volume(&x)? * 1e6;
+    }
+    let n = states.len() as f64;
+    let mut out: Vec<CurvePoint> = budgets
+        .iter()
+        .enumerate()
+        .map(|(i, b)| CurvePoint {
+            method: format!("solver {b} it"),
+            garment: g.name().to_string(),
+            ms_per_frame: acc[i].0 / n,
+            energy_gap: acc[i].1 / n,
+            volume_cm3: acc[i].2 / n,
+        })
+        .collect();
+    let last = budgets.len();
+    out.push(CurvePoint {
+        method: method.label.clone(),
+        garment: g.name().to_string(),
+        ms_per_frame: acc[last].0 / n,
+        energy_gap: acc[last].1 / n,
+        volume_cm3: acc[last].2 / n,
+    });
+    Ok(out)
+}
+
+/// Writes `table1.md`, `table1.csv`, `table1.json`, `runtime.md`, `runtime.csv` and
+/// `runtime.svg` into `out`. `command` is recorded in the Markdown files.
+pub fn write_reports(out: &Path, rows: &[Row], curve: &[CurvePoint], command: &str) -> Result<(), TrainError> {
+    std::fs::create_dir_all(out).map_err(|e| TrainError::io(out, e))?;
+    let w = |name: &str, text: String| -> Result<(), TrainError> {
+        let p = out.join(name);
+        std::fs::write(&p, text).map_err(|e| TrainError::io(&p, e))
+    };
+    let mut md = format!(
+        "# Table 1: self-collision on the test motions\n\nProduced by `{command}`.\n\n\
+         | method | garment | frames | V (cm³) | L_self-col (×10⁻³) | % > 0.1 | % > 0.01 | body pen. (%) | FPS |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|---:|\n"
+    );
+    let mut csv = String::from(
+        "method,garment,frames,volume_cm3,l_selfcol,pct_above_0_1,pct_above_0_01,body_penetration_pct,fps\n",
+    );
+    for r in rows {
+        md += &format!(
+            "| {} | {} | {} | {:.3} | {:.3} | {:.1} | {:.1} | {:.2} | {:.1} |\n",
+            r.method,
+            r.garment,
+            r.frames,
+            r.volume_cm3,
+            r.l_selfcol * 1e3,
+            r.pct_above_0_1,
+            r.pct_above_0_01,
+            r.body_penetration_pct,
+            r.fps
+        );
+        csv += &format!(
+            "{},{},{},{},{},{},{},{},{}\n",
+            r.method,
+            r.garment,
+            r.frames,
+            r.volume_cm3,
+            r.l_selfcol,
+            r.pct_above_0_1,
+            r.pct_above_0_01,
+            r.body_penetration_pct,
+            r.fps
+        );
+    }
+    w("table1.md", md)?;
+    w("table1.csv", csv)?;
+    w("table1.json", serde_json::to_string_pretty(rows).map_err(|e| TrainError::io(out.join("table1.json"), e))?)?;
+    let mut md = format!(
+        "# Error against run time\n\nProduced by `{command}`. Energy gap = E(answer) − E(reference solver, converged), J, \
+         averaged over test states of the network's rollout.\n\n\
+         | method | garment | ms/frame | energy gap (J) | V (cm³) |\n|---|---|---:|---:|---:|\n"
+    );
+    let mut csv = String::from("method,garment,ms_per_frame,energy_gap,volume_cm3\n");
+    for p in curve {
+        md += &format!(
+            "| {} | {} | {:.2} | {:.4e} | {:.3} |\n",
+            p.method, p.garment, p.ms_per_frame, p.energy_gap, p.volume_cm3
+        );
+        csv += &format!("{},{},{},{},{}\n", p.method, p.garment, p.ms_per_frame, p.energy_gap, p.volume_cm3);
+    }
+    md += "\n![error against run time](runtime.svg)\n";
+    w("runtime.md", md)?;
+    w("runtime.csv", csv)?;
+    w("runtime.svg", svg_plot(curve))
+}
+
+/// A log-log scatter plot (ms per frame against energy gap) as SVG text: solver budgets as
+/// a line per garment, networks as labelled dots.
+pub fn svg_plot(curve: &[CurvePoint]) -> String {
+    let (w, h, m) = (640.0, 420.0, 60.0);
+    let pts: Vec<(f64, f64)> =
+        curve.iter().map(|p| (p.ms_per_frame.max(1e-3).log10(), p.energy_gap.abs().max(1e-9).log10())).collect();
+    let (x0, x1) = pts.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (y0, y1) = pts.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let (x0, x1) = (x0.floor(), x1.ceil().max(x0.floor() + 1.0));
+    let (y0, y1) = (y0.floor(), y1.ceil().max(y0.floor() + 1.0));
+    let sx = |x: f64| m + (x - x0) / (x1 - x0) * (w - 2.0 * m);
+    let sy = |y: f64| h - m - (y - y0) / (y1 - y0) * (h - 2.0 * m);
+    let mut s = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"11\">\n\
+         <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
+         <line x1=\"{m}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"black\"/>\n<line x1=\"{m}\" y1=\"{m}\" x2=\"{m}\" y2=\"{}\" stroke=\"black\"/>\n\
+         <text x=\"{}\" y=\"{}\" text-anchor=\"middle\">milliseconds per frame (log)</text>\n\
+         <text x=\"14\" y=\"{}\" transform=\"rotate(-90 14 {})\" text-anchor=\"middle\">|energy gap| J (log)</text>\n",
+        h - m, w - m, h - m, h - m, w / 2.0, h - 15.0, h / 2.0, h / 2.0
+    );
+    for e in x0 as i32..=x1 as i32 {
+        s += &format!("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">1e{e}</text>\n", sx(e as f64), h - m + 15.0);
+    }
+    for e in y0 as i32..=y1 as i32 {
+        s += &format!("<text x=\"{}\" y=\"{}\" text-anchor=\"end\">1e{e}</text>\n", m - 5.0, sy(e as f64) + 4.0);
+    }
+    let solver: Vec<usize> = (0..curve.len()).filter(|&i| curve[i].method.starts_with("solver ")).collect();
+    let mut garments: Vec<&str> = solver.iter().map(|&i| curve[i].garment.as_str()).collect();
+    garments.dedup();
+    for gname in garments {
+        let line: Vec<String> = solver
+            .iter()
+            .filter(|&&i| curve[i].garment == gname)
+            .map(|&i| format!("{:.1},{:.1}", sx(pts[i].0), sy(pts[i].1)))
+            .collect();
+        s += &format!(
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"steelblue\" stroke-width=\"2\"/>\n",
+            line.join(" ")
+        );
+    }
+    for (i, p) in curve.iter().enumerate() {
+        let net = !p.method.starts_with("solver ");
+        let color = if net { "crimson" } else { "steelblue" };
+        s += &format!("<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"4\" fill=\"{color}\"/>\n", sx(pts[i].0), sy(pts[i].1));
+        let label = if net { format!("{} ({})", p.method, p.garment) } else { p.method.clone() };
+        s += &format!(
+            "<text x=\"{:.1}\" y=\"{:.1}\" fill=\"{color}\">{}</text>\n",
+            sx(pts[i].0) + 6.0,
+            sy(pts[i].1) - 6.0,
+            label.replace('&', "&amp;").replace('<', "&lt;")
+        );
+    }
+    s + "</svg>\n"
+}

@@ -1,0 +1,113 @@
+//! One training or test garment: the loaded scene, its proxy body (the body vertices near
+//! the garment, so that graphs and collision queries skip the far side of the body) and the
+//! frames of its motions.
+
+use std::sync::Arc;
+
+use senc_geom::{HoleSelection, TriMesh, Vec3};
+use senc_scene::{skin, Motion, Scene, SkinWeights};
+
+use crate::error::TrainError;
+
+/// A scene prepared for simulation.
+#[derive(Debug, Clone)]
+pub struct Garment {
+    /// The loaded scene.
+    pub scene: Arc<Scene>,
+    /// The garment rest mesh.
+    pub rest: TriMesh,
+    /// Boundary loops left open for the self-collision energy (loop indices).
+    pub open_holes: Vec<usize>,
+    /// Proxy body: rest positions of the kept body vertices.
+    proxy_rest: Vec<Vec3>,
+    /// Proxy body: skinning weights of the kept vertices.
+    proxy_weights: SkinWeights,
+    /// Proxy body mesh (kept vertices, faces whose three vertices are kept).
+    pub proxy_mesh: TriMesh,
+}
+
+impl Garment {
+    /// Loads the scene file `path` and builds the proxy body with `margin` metres.
+    pub fn load(path: &std::path::Path, margin: f64) -> Result<Self, TrainError> {
+        let scene = Scene::load(path)?;
+        Self::new(Arc::new(scene), margin)
+    }
+
+    /// Prepares a loaded scene.
+    pub fn new(scene: Arc<Scene>, margin: f64) -> Result<Self, TrainError> {
+        let rest = scene.garment_mesh.clone();
+        let n_loops = rest.topology().boundary_loops().len();
+        let open_holes = match scene.hole_selection()? {
+            HoleSelection::All => Vec::new(),
+            HoleSelection::None => (0..n_loops).collect(),
+            HoleSelection::AllExcept(v) => v,
+            HoleSelection::Only(close) => (0..n_loops).filter(|i| !close.contains(i)).collect(),
+        };
+        let body = &scene.body;
+        let m2 = margin * margin;
+        let cloth = rest.positions();
+        let keep: Vec<bool> =
+            body.positions.iter().map(|b| cloth.iter().any(|c| (c - b).norm_squared() < m2)).collect();
+        let mut map = vec![u32::MAX; keep.len()];
+        let mut proxy_rest = Vec::new();
+        let mut lists = Vec::new();
+        for (i, &k) in keep.iter().enumerate() {
+            if k {
+                map[i] = proxy_rest.len() as u32;
+                proxy_rest.push(body.positions[i]);
+                lists.push(body.weights.of(i).map(|(b, w)| (b as u16, w as f32)).collect::<Vec<_>>());
+            }
+        }
+        let faces: Vec<[u32; 3]> = body
+            .faces
+            .iter()
+            .filter(|f| f.iter().all(|&v| keep[v as usize]))
+            .map(|f| [map[f[0] as usize], map[f[1] as usize], map[f[2] as usize]])
+            .collect();
+        // Drop vertices no kept face uses, so the proxy mesh has no isolated vertices.
+        let mut used = vec![false; proxy_rest.len()];
+        faces.iter().flatten().for_each(|&v| used[v as usize] = true);
+        let mut remap = vec![u32::MAX; proxy_rest.len()];
+        let mut pr = Vec::new();
+        let mut pl = Vec::new();
+        for i in 0..proxy_rest.len() {
+            if used[i] {
+                remap[i] = pr.len() as u32;
+                pr.push(proxy_rest[i]);
+                pl.push(lists[i].clone());
+            }
+        }
+        let faces: Vec<[u32; 3]> =
+            faces.iter().map(|f| [remap[f[0] as usize], remap[f[1] as usize], remap[f[2] as usize]]).collect();
+        if faces.is_empty() {
+            return Err(TrainError::Invalid(format!(
+                "no body face lies within body_margin = {margin} m of garment {}; raise [train] body_margin",
+                scene.garment.name
+            )));
+        }
+        let proxy_weights = SkinWeights::from_lists(&pl)?;
+        let proxy_mesh = TriMesh::new(pr.clone(), faces)?;
+        Ok(Self { scene, rest, open_holes, proxy_rest: pr, proxy_weights, proxy_mesh })
+    }
+
+    /// Garment name.
+    pub fn name(&self) -> &str {
+        &self.scene.garment.name
+    }
+
+    /// Proxy body vertices at `frame` of `motion`, m.
+    pub fn body_at(&self, motion: &Motion, frame: usize) -> Result<Vec<Vec3>, TrainError> {
+        let tr = self.scene.body.skeleton.bone_transforms(&motion.pose(frame)?)?;
+        Ok(skin(&self.proxy_rest, &self.proxy_weights, &tr))
+    }
+
+    /// The garment skinned (no dynamics) to `frame` of `motion`, m.
+    pub fn skinned_at(&self, motion: &Motion, frame: usize) -> Result<Vec<Vec3>, TrainError> {
+        Ok(self.scene.garment_skinned_at(motion, frame)?)
+    }
+
+    /// The proxy body's faces.
+    pub fn body_faces(&self) -> &[[u32; 3]] {
+        self.proxy_mesh.faces()
+    }
+}

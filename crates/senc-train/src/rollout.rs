@@ -1,0 +1,75 @@
+//! Running a trained model on a motion: the garment starts skinned at frame 0 with zero
+//! velocity, then the network predicts each next frame from the two previous ones.
+
+use std::time::Instant;
+
+use senc_energy::Material;
+use senc_geom::Vec3;
+use senc_model::{BodyState, FrameState, GraphInputs, Model};
+use senc_scene::Motion;
+
+use crate::error::TrainError;
+use crate::garment::Garment;
+
+/// A simulated sequence.
+#[derive(Debug, Clone)]
+pub struct Rollout {
+    /// Cloth positions per frame (frame 0 is the skinned start), m.
+    pub cloth: Vec<Vec<Vec3>>,
+    /// Proxy body positions per frame, m.
+    pub body: Vec<Vec<Vec3>>,
+    /// Seconds spent building graphs and running the network (no I/O, no skinning).
+    pub infer_seconds: f64,
+    /// Frames predicted.
+    pub steps: usize,
+}
+
+/// Simulates `frames` frames of `motion` (fewer if the motion is shorter) with `model`
+/// (inference copy taken internally), gravity plus `external` m/s², and `material`.
+pub fn rollout(
+    model: &Model,
+    g: &Garment,
+    motion: &Motion,
+    frames: usize,
+    external: Vec3,
+    material: &Material,
+) -> Result<Rollout, TrainError> {
+    let model = if model.device.is_autodiff() { model.valid() } else { model.clone() };
+    let n = frames.min(motion.n_frames().saturating_sub(1));
+    let x0 = g.skinned_at(motion, 0)?;
+    let mut cloth = vec![x0.clone()];
+    let mut body = vec![g.body_at(motion, 0)?];
+    let mut prev = x0.clone();
+    let mut curr = x0;
+    let accel = Vec3::from(g.scene.config.external_force.gravity) + external;
+    let mat = senc_model::Material {
+        mu: material.mu,
+        lambda: material.lambda,
+        bending: material.bending_stiffness,
+        density: material.density,
+    };
+    let mut infer = 0.0;
+    for f in 0..n {
+        let b_next = g.body_at(motion, f + 1)?;
+        let t0 = Instant::now();
+        let frame = FrameState {
+            rest: &g.rest,
+            prev: &prev,
+            curr: &curr,
+            material: mat,
+            accel,
+            body: Some(BodyState { faces: g.body_faces(), curr: &body[f], next: &b_next }),
+        };
+        let graph = GraphInputs::build(&frame, &model.graph)?;
+        let a = senc_model::tensor_to_vec3(model.forward(&graph))?;
+        infer += t0.elapsed().as_secs_f64();
+        let next: Vec<Vec3> = curr.iter().zip(&prev).zip(a).map(|((c, p), a)| c * 2.0 - p + a).collect();
+        if !next.iter().all(|p| p.iter().all(|c| c.is_finite())) {
+            return Err(TrainError::Invalid(format!("the rollout diverged (non-finite positions) at frame {}", f + 1)));
+        }
+        prev = std::mem::replace(&mut curr, next);
+        cloth.push(curr.clone());
+        body.push(b_next);
+    }
+    Ok(Rollout { cloth, body, infer_seconds: infer, steps: n })
+}

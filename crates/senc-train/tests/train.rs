@@ -1,0 +1,104 @@
+//! End-to-end trainer tests on `configs/smoke.toml` shrunk further (tiny network, a few
+//! iterations): checkpoints, exact resume, phase switch, non-finite handling, evaluation.
+
+use std::path::{Path, PathBuf};
+
+use senc_model::burn::tensor::Device;
+use senc_model::Model;
+use senc_train::clip::flat_params;
+use senc_train::eval::{evaluate, write_reports, Method};
+use senc_train::Trainer;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A copy of the smoke config with fewer iterations, written into `dir`.
+fn tiny_config(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(root().join("configs/smoke.toml")).unwrap();
+    let data = root().join("data");
+    let text = text
+        .replace("../data", data.to_str().unwrap())
+        .replace("warmup_iterations = 10", "warmup_iterations = 3")
+        .replace("phase1_iterations = 30", "phase1_iterations = 6")
+        .replace("phase2_iterations = 20", "phase2_iterations = 4")
+        .replace("checkpoint_every = 10", "checkpoint_every = 2")
+        .replace("rollout_growth = 10", "rollout_growth = 2")
+        .replace("frames = 20", "frames = 4");
+    let p = dir.join("tiny.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("senc-train-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
+    let d = tmp("resume");
+    let cfg = tiny_config(&d);
+    // Uninterrupted.
+    let a = d.join("a");
+    let mut t = Trainer::new(&cfg, &a).unwrap();
+    let mut losses_a = Vec::new();
+    t.run(None, |r| {
+        if r.phase > 0 {
+            losses_a.push(r.loss)
+        }
+    })
+    .unwrap();
+    assert!(t.finished());
+    assert_eq!(losses_a.len(), 10, "6 + 4 training iterations");
+    assert!(losses_a.iter().all(|l| l.is_finite()), "{losses_a:?}");
+    // Killed after 4 iterations (a checkpoint at 4), then resumed.
+    let b = d.join("b");
+    let mut t = Trainer::new(&cfg, &b).unwrap();
+    t.run(Some(4), |_| {}).unwrap();
+    assert!(!t.finished());
+    drop(t);
+    let mut t = Trainer::resume(&b).unwrap();
+    assert_eq!(t.progress.iteration, 4);
+    t.run(None, |_| {}).unwrap();
+    assert!(t.finished());
+    let params = |dir: &Path| flat_params(&Model::load(dir, &Device::flex()).unwrap().network);
+    for phase in ["phase1", "phase2"] {
+        let wa = params(&a.join(phase));
+        let wb = params(&b.join(phase));
+        let diff = wa.iter().zip(&wb).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        assert!(wa.len() == wb.len() && diff == 0.0, "{phase}: resumed weights differ by up to {diff}");
+    }
+    // Phase 2 trained from phase 1: the weights moved.
+    assert_ne!(params(&a.join("phase1")), params(&a.join("phase2")));
+    let csv = std::fs::read_to_string(a.join("losses.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 11, "{csv}");
+    assert!(csv.contains("self_collision="), "phase 2 logs the self-collision term:\n{csv}");
+
+    // Evaluation of the tiny model writes every report.
+    let m = Method::new(&a.join("phase2"), None).unwrap();
+    let (row, curve) = evaluate(&m).unwrap();
+    assert_eq!(row.frames, 4);
+    assert!(row.volume_cm3.is_finite() && row.volume_cm3 >= 0.0);
+    assert!(row.fps > 0.0);
+    assert_eq!(curve.len(), 4, "3 solver budgets + the network");
+    assert!(curve.iter().all(|p| p.energy_gap.is_finite()));
+    let out = d.join("reports");
+    write_reports(&out, &[row], &curve, "test").unwrap();
+    for f in ["table1.md", "table1.csv", "table1.json", "runtime.md", "runtime.csv", "runtime.svg"] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn bad_config_is_an_error_naming_the_key() {
+    let d = tmp("bad");
+    let p = d.join("bad.toml");
+    std::fs::write(&p, "[train]\nlearning_rat = 1.0\n").unwrap();
+    let e = Trainer::new(&p, &d.join("out")).err().expect("must fail");
+    assert!(e.to_string().contains("learning_rat"), "{e}");
+    let _ = std::fs::remove_dir_all(&d);
+}
