@@ -24,7 +24,7 @@ pub fn run(
 ) -> Result<()> {
     let m = Method::new(checkpoint, config)?;
     let cfg = RunConfig::read(&m.config)?;
-    let g = Garment::load(&m.config, cfg.train.body_margin)?;
+    let g = Garment::load(&senc_train::eval::first_scene(&cfg)?, cfg.train.body_margin)?;
     let (motion, _) = g.scene.motion(motion).ok_or_else(|| {
         let names: Vec<&str> = g.scene.train.iter().chain(&g.scene.test).map(|m| m.name.as_str()).collect();
         anyhow!("no motion named {motion}; this scene has {}", names.join(", "))

@@ -126,10 +126,18 @@ impl VolumeMeter {
     }
 }
 
+/// The first scene file of a config (its own `[scene]`, else the first of `[train] scenes`).
+pub fn first_scene(cfg: &RunConfig) -> Result<PathBuf, TrainError> {
+    cfg.scene_files().into_iter().next().ok_or_else(|| TrainError::Config {
+        path: cfg.path.clone(),
+        message: "no [scene] table and no [train] scenes".into(),
+    })
+}
+
 /// Evaluates one method: Table-1 row per garment and the network's curve points.
 pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
     let cfg = RunConfig::read(&method.config)?;
-    let g = Garment::load(&method.config, cfg.train.body_margin)?;
+    let g = Garment::load(&first_scene(&cfg)?, cfg.train.body_margin)?;
     let model = Model::load(&method.checkpoint, &Device::flex())?;
     let material = scene_material(&g)?;
     let ext = Vec3::from(g.scene.config.external_force.acceleration);
