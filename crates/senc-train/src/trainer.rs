@@ -224,6 +224,21 @@ impl Trainer {
             .map_err(|e| TrainError::Checkpoint { path: ppath.clone(), message: e.to_string() })?;
         let mut rng = ChaCha8Rng::seed_from_u64(config.train.seed);
         rng.set_word_pos(progress.rng_word_pos);
+        // Drop loss rows logged after the checkpoint (they are about to be redone).
+        let csv = out.join(CSV_FILE);
+        if let Ok(text) = std::fs::read_to_string(&csv) {
+            let keep: Vec<&str> = text
+                .lines()
+                .filter(|l| {
+                    let mut f = l.split(',');
+                    match (f.next().and_then(|p| p.parse::<u8>().ok()), f.next().and_then(|i| i.parse::<u64>().ok())) {
+                        (Some(p), Some(i)) => (p, i) <= (progress.phase, progress.iteration),
+                        _ => true,
+                    }
+                })
+                .collect();
+            std::fs::write(&csv, keep.join("\n") + "\n").map_err(|e| TrainError::io(&csv, e))?;
+        }
         Ok(Self {
             config,
             config_text,

@@ -64,6 +64,8 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     assert_eq!(t.progress.iteration, 4);
     t.run(None, |_| {}).unwrap();
     assert!(t.finished());
+    let lines = |d: &Path| std::fs::read_to_string(d.join("losses.csv")).unwrap().lines().count();
+    assert_eq!(lines(&b), lines(&a), "the resumed CSV has no duplicate rows");
     let params = |dir: &Path| flat_params(&Model::load(dir, &Device::flex()).unwrap().network);
     for phase in ["phase1", "phase2"] {
         let wa = params(&a.join(phase));
