@@ -25,11 +25,11 @@ use clap::{CommandFactory, Parser, Subcommand};
 mod check_mesh;
 mod data;
 mod energy;
+mod eval;
 mod fit;
 mod preview;
 mod simulate;
 mod train;
-mod eval;
 mod volume;
 
 #[derive(Parser)]
@@ -224,9 +224,7 @@ fn main() -> std::process::ExitCode {
             fit::run(&garment, &body, out, scale, no_align, margin)
         }
         Some(Command::Train { config, out, resume, stop_after }) => {
-            let out = out.unwrap_or_else(|| {
-                PathBuf::from("runs").join(config.file_stem().unwrap_or_default())
-            });
+            let out = out.unwrap_or_else(|| PathBuf::from("runs").join(config.file_stem().unwrap_or_default()));
             train::run(&config, &out, resume, stop_after)
         }
         Some(Command::Eval { checkpoint, compare, config, out }) => {
