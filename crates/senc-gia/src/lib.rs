@@ -160,9 +160,6 @@ pub enum GiaError {
         /// Faces given.
         got: usize,
     },
-    /// Not built yet.
-    #[error("senc-gia is not finished yet")]
-    Unfinished,
 }
 
 /// Reusable state between queries on one closed mesh whose positions change: the BVH (refit,
@@ -234,7 +231,7 @@ impl GiaWorkspace {
                 sides.push(None);
                 continue;
             }
-            let side = self.fill(mesh, &cut, inter, c, &contours, &nodes, options.size_rule, &mut out.diagnostics);
+            let side = self.fill(mesh, &cut, inter, c, &nodes, options.size_rule, &mut out.diagnostics);
             sides.push(side);
         }
 
@@ -299,7 +296,6 @@ impl GiaWorkspace {
         cut: &CutMesh,
         inter: &SelfIntersections,
         c: &Contour,
-        _contours: &[Contour],
         nodes: &[Vec3],
         rule: SizeRule,
         diag: &mut Diagnostics,

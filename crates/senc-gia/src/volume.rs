@@ -1,7 +1,7 @@
 //! Signed volumes and areas of cut-mesh pieces, and the chain rule from piece nodes back to
 //! mesh vertices (exact or with SENC's fixed barycentric weights).
 
-use senc_geom::cut::{CutMesh, EdgeTag};
+use senc_geom::cut::CutMesh;
 use senc_geom::intersect::SelfIntersections;
 use senc_geom::{TriMesh, Vec3};
 
@@ -114,11 +114,6 @@ fn for_each_fan_triangle(mesh: &TriMesh, cut: &CutMesh, id: u32, mut f: impl FnM
             f(cycle[0].0, cycle[k].0, cycle[k + 1].0);
         }
     }
-}
-
-/// Whether a piece's edge is a chord of the given segment (helper for tests).
-pub fn is_chord(tag: EdgeTag, segment: u32) -> bool {
-    matches!(tag, EdgeTag::Chord { segment: s } if s == segment)
 }
 
 /// Chains node gradients back to the mesh vertices. Returns the number of points whose
