@@ -235,17 +235,7 @@ pub fn run(out: &Path, work: &Path) -> Result<()> {
 
     let garments = out.join("garments");
     let save = |asset: &senc_scene::GarmentAsset, rep: &fit::FitReport| -> Result<()> {
-        println!(
-            "{}: {} vertices, {} triangles, loops {:?}, arm correction {:.1} deg, inside body before fit {}, after {}, min distance {:.4} m",
-            asset.name,
-            asset.positions.len(),
-            asset.faces.len(),
-            asset.loop_names(),
-            rep.arm_correction_deg,
-            rep.inside_before,
-            rep.inside_after,
-            rep.min_distance
-        );
+        println!("{}", fit::describe(asset, rep));
         senc_scene::assets::write_msgpack(garments.join(format!("{}.msgpack", asset.name)), asset)?;
         Ok(())
     };

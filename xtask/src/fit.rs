@@ -257,8 +257,16 @@ pub fn run(garment: &Path, body: &Path, out: Option<PathBuf>, scale: f64, no_ali
     senc_scene::assets::write_msgpack(&out, &asset)?;
     let obj = out.with_extension("fitted.obj");
     senc_geom::obj::write_obj(&obj, &asset.positions, &asset.faces)?;
-    println!(
-        "{name}: {} vertices, {} faces; loops {:?}; arm correction {:.1} deg; inside before push-out {}, after {}; min distance to body {:.4} m",
+    println!("{}", describe(&asset, &rep));
+    println!("wrote {} and {}", out.display(), obj.display());
+    Ok(())
+}
+
+/// One line about a fitted garment (shared with `cargo xtask data`).
+pub fn describe(asset: &GarmentAsset, rep: &FitReport) -> String {
+    format!(
+        "{}: {} vertices, {} faces, loops {:?}; arm correction {:.1} deg; inside the body before push-out {}, after {}; min distance to body {:.4} m",
+        asset.name,
         asset.positions.len(),
         asset.faces.len(),
         asset.loop_names(),
@@ -266,7 +274,5 @@ pub fn run(garment: &Path, body: &Path, out: Option<PathBuf>, scale: f64, no_ali
         rep.inside_before,
         rep.inside_after,
         rep.min_distance
-    );
-    println!("wrote {} and {}", out.display(), obj.display());
-    Ok(())
+    )
 }

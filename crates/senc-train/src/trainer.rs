@@ -137,6 +137,24 @@ pub struct Trainer {
     sequence_id: u64,
 }
 
+/// The network's view of one step of a sequence (shared by warm-up and training steps).
+fn frame_state<'a>(
+    g: &'a Garment,
+    seq: &'a Sequence,
+    body_t: &'a [Vec3],
+    body_n: &'a [Vec3],
+    accel: Vec3,
+) -> FrameState<'a> {
+    FrameState {
+        rest: &g.rest,
+        prev: &seq.prev,
+        curr: &seq.curr,
+        material: model_material(&seq.material),
+        accel,
+        body: Some(BodyState { faces: g.body_faces(), curr: body_t, next: body_n }),
+    }
+}
+
 fn model_material(m: &Material) -> senc_model::Material {
     senc_model::Material { mu: m.mu, lambda: m.lambda, bending: m.bending_stiffness, density: m.density }
 }
@@ -361,14 +379,7 @@ impl Trainer {
         let body_t = g.body_at(motion, seq.frame)?;
         let body_n = g.body_at(motion, seq.frame + 1)?;
         let accel = self.gravity(g) + Vec3::from(seq.external);
-        let frame = FrameState {
-            rest: &g.rest,
-            prev: &seq.prev,
-            curr: &seq.curr,
-            material: model_material(&seq.material),
-            accel,
-            body: Some(BodyState { faces: g.body_faces(), curr: &body_t, next: &body_n }),
-        };
+        let frame = frame_state(g, &seq, &body_t, &body_n, accel);
         let graph = GraphInputs::build(&frame, &self.model.graph)?;
         self.model.normalizers.update_inputs(&graph);
         let next = g.skinned_at(motion, seq.frame + 1)?;
@@ -413,14 +424,7 @@ impl Trainer {
         let body_t = if seq.first_step { g.body_at(motion, 0)? } else { g.body_at(motion, seq.frame)? };
         let body_n = g.body_at(motion, seq.frame + 1)?;
         let accel = self.gravity(&g) + Vec3::from(seq.external);
-        let frame = FrameState {
-            rest: &g.rest,
-            prev: &seq.prev,
-            curr: &seq.curr,
-            material: model_material(&seq.material),
-            accel,
-            body: Some(BodyState { faces: g.body_faces(), curr: &body_t, next: &body_n }),
-        };
+        let frame = frame_state(&g, &seq, &body_t, &body_n, accel);
         let graph = GraphInputs::build(&frame, &self.model.graph)?;
         let (accel_t, next) = self.model.predict(&graph, &frame)?;
         // Energy of the prediction (the long first step uses its own Δt).
