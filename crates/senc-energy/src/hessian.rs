@@ -2,7 +2,7 @@
 //! solver's Newton systems, with element assembly, a parallel product, and a
 //! block-Jacobi preconditioned conjugate gradient solve.
 
-use nalgebra::{Matrix3, SymmetricEigen};
+use nalgebra::{Matrix3, SMatrix, SymmetricEigen};
 use rayon::prelude::*;
 
 use senc_geom::Vec3;
@@ -58,6 +58,32 @@ impl BlockSparse {
                 }
             }
         }
+    }
+
+    /// Number of stored blocks.
+    pub fn n_blocks(&self) -> usize {
+        self.blocks.len()
+    }
+
+    /// Block `(i, j)`, if it is in the pattern.
+    pub fn block(&self, i: u32, j: u32) -> Option<&Matrix3<f64>> {
+        self.index(i, j).map(|k| &self.blocks[k])
+    }
+
+    /// Calls `f(i, cols, blocks)` for every block row `i` in parallel, with the row's column
+    /// indices (sorted) and its blocks; each row is written by one task only.
+    pub fn par_rows_mut(&mut self, f: impl Fn(usize, &[u32], &mut [Matrix3<f64>]) + Sync) {
+        let mut rows: Vec<&mut [Matrix3<f64>]> = Vec::with_capacity(self.offsets.len() - 1);
+        let mut rest: &mut [Matrix3<f64>] = &mut self.blocks;
+        for w in self.offsets.windows(2) {
+            let (row, tail) = rest.split_at_mut((w[1] - w[0]) as usize);
+            rows.push(row);
+            rest = tail;
+        }
+        let (offsets, cols) = (&self.offsets, &self.cols);
+        rows.into_par_iter().enumerate().with_min_len(64).for_each(|(i, row)| {
+            f(i, &cols[offsets[i] as usize..offsets[i + 1] as usize], row);
+        });
     }
 
     /// Adds `m` to diagonal block `i`.
@@ -124,24 +150,29 @@ impl BlockSparse {
     }
 }
 
-/// Projects a symmetric `3K × 3K` matrix given as blocks onto the positive semi-definite
-/// cone (negative eigenvalues clamped to zero).
-pub fn project_spd<const K: usize>(h: &mut [[Matrix3<f64>; K]; K]) {
-    let n = 3 * K;
-    let mut m = nalgebra::DMatrix::<f64>::zeros(n, n);
-    for k in 0..K {
-        for l in 0..K {
-            m.view_mut((3 * k, 3 * l), (3, 3)).copy_from(&h[k][l]);
+/// Projects a symmetric 9×9 matrix given as 3×3 blocks (a triangle's element Hessian) onto
+/// the positive semi-definite cone: negative eigenvalues are clamped to zero. Fixed-size
+/// (stack) eigen decomposition; the input is returned unchanged when it is already PSD.
+pub fn project_spd(h: &mut [[Matrix3<f64>; 3]; 3]) {
+    let mut m = SMatrix::<f64, 9, 9>::zeros();
+    for k in 0..3 {
+        for l in 0..3 {
+            m.fixed_view_mut::<3, 3>(3 * k, 3 * l).copy_from(&h[k][l]);
         }
     }
     let eig = SymmetricEigen::new(m);
     if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
         return;
     }
-    let d = nalgebra::DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0)));
-    let m = &eig.eigenvectors * d * eig.eigenvectors.transpose();
-    for k in 0..K {
-        for l in 0..K {
+    let v = &eig.eigenvectors;
+    let mut scaled = *v;
+    for (j, l) in eig.eigenvalues.iter().enumerate() {
+        let l = l.max(0.0);
+        scaled.column_mut(j).scale_mut(l);
+    }
+    let m = scaled * v.transpose();
+    for k in 0..3 {
+        for l in 0..3 {
             h[k][l] = m.fixed_view::<3, 3>(3 * k, 3 * l).into_owned();
         }
     }

@@ -1,8 +1,9 @@
 //! Scene-driven assembly: the energy of one frame built from the rest mesh, the material and
 //! config, and an optional body, with only the terms the scene needs.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
+use nalgebra::Matrix3;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -12,7 +13,7 @@ use crate::config::{BendingRest, EnergyConfig};
 use crate::error::EnergyError;
 use crate::hessian::BlockSparse;
 use crate::rest::RestState;
-use crate::scatter::Scatter;
+use crate::scatter::{Gather, Scatter, VERTEX_CHUNK};
 use crate::terms::bending::Bending;
 use crate::terms::body::{BodyQueries, Collision, Friction};
 use crate::terms::gravity::UniformField;
@@ -80,6 +81,11 @@ pub struct EnergyModel {
     self_collision: Option<SelfCollision>,
     repulsion: Option<Repulsion>,
     pattern: Vec<Vec<u32>>,
+    /// Vertex → slot map over the element gradient buffer `[3 per face | 4 per hinge]`.
+    gather: Gather,
+    /// The element gradient buffer, reused across evaluations (a concurrent evaluation that
+    /// finds it taken allocates its own).
+    scratch: Mutex<Vec<Vec3>>,
 }
 
 impl EnergyModel {
@@ -124,6 +130,11 @@ impl EnergyModel {
         };
         let repulsion = (config.repulsion.weight > 0.0 && config.repulsion.threshold > 0.0)
             .then(|| Repulsion::new(rest.topology_arc(), config.repulsion.weight, config.repulsion.threshold));
+        let mut slot_vertex: Vec<u32> = state.faces.as_flattened().to_vec();
+        if bending.is_some() {
+            slot_vertex.extend(state.hinges.iter().flat_map(|h| h.vertices));
+        }
+        let gather = Gather::new(n, &slot_vertex);
         let pattern =
             state.faces.iter().map(|f| f.to_vec()).chain(state.hinges.iter().map(|h| h.vertices.to_vec())).collect();
         Ok(Self {
@@ -136,6 +147,8 @@ impl EnergyModel {
             self_collision,
             repulsion,
             pattern,
+            gather,
+            scratch: Mutex::new(Vec::new()),
         })
     }
 
@@ -285,33 +298,125 @@ impl FrameEnergy<'_> {
 
     /// Energy breakdown of `x = x[t+1]`; when `grad` is given it is overwritten with
     /// `∂E/∂x` (N).
-    pub fn evaluate(&self, x: &[Vec3], mut grad: Option<&mut [Vec3]>) -> Result<Breakdown, EnergyError> {
+    ///
+    /// With a gradient, stretching and bending write per-element corner gradients into one
+    /// buffer (parallel over fixed chunks of elements), and a single pass over vertices
+    /// gathers them (fixed order) together with inertia, gravity, external force and
+    /// collision; friction, self-collision and repulsion are added after. Every energy is
+    /// summed in a fixed chunk order, so the result does not depend on thread scheduling.
+    pub fn evaluate(&self, x: &[Vec3], grad: Option<&mut [Vec3]>) -> Result<Breakdown, EnergyError> {
         let m = self.model;
         check_positions("x[t+1]", x, m.n_vertices())?;
-        if let Some(g) = grad.as_deref_mut() {
-            if g.len() != x.len() {
-                return Err(EnergyError::VertexCount { what: "gradient buffer", expected: x.len(), got: g.len() });
+        let Some(grad) = grad else {
+            return self.evaluate_value(x);
+        };
+        if grad.len() != x.len() {
+            return Err(EnergyError::VertexCount { what: "gradient buffer", expected: x.len(), got: grad.len() });
+        }
+        let mut local = Vec::new();
+        let mut guard = m.scratch.try_lock().ok();
+        let buf: &mut Vec<Vec3> = match guard.as_deref_mut() {
+            Some(b) => b,
+            None => &mut local,
+        };
+        buf.resize(m.gather.n_slots(), Vec3::zeros());
+        let (face_buf, hinge_buf) = buf.split_at_mut(3 * m.stretching.n_faces());
+        let (e_stretch, e_bend) = rayon::join(
+            || m.stretching.element_gradients(x, face_buf),
+            || m.bending.as_ref().map(|t| t.element_gradients(x, hinge_buf)),
+        );
+        let buf: &[Vec3] = buf;
+        // Per-vertex terms, in breakdown order: inertia, gravity, external, collision.
+        let (inertia, external, collision) = (self.inertia.as_ref(), self.external.as_ref(), self.collision.as_ref());
+        let partials: Vec<[f64; 4]> = grad
+            .par_chunks_mut(VERTEX_CHUNK)
+            .zip(x.par_chunks(VERTEX_CHUNK))
+            .enumerate()
+            .map(|(c, (gs, xs))| {
+                let mut e = [0.0; 4];
+                for (j, (g, xi)) in gs.iter_mut().zip(xs).enumerate() {
+                    let i = c * VERTEX_CHUNK + j;
+                    let mut gi = m.gather.sum(i, buf);
+                    if let Some(t) = inertia {
+                        let (ev, gv) = t.vertex(i, xi);
+                        e[0] += ev;
+                        gi += gv;
+                    }
+                    let (ev, gv) = self.gravity.vertex(i, xi);
+                    e[1] += ev;
+                    gi += gv;
+                    if let Some(t) = external {
+                        let (ev, gv) = t.vertex(i, xi);
+                        e[2] += ev;
+                        gi += gv;
+                    }
+                    if let Some(t) = collision {
+                        let (ev, gv) = t.vertex(i, xi);
+                        e[3] += ev;
+                        gi += gv;
+                    }
+                    *g = gi;
+                }
+                e
+            })
+            .collect();
+        let mut sums = [0.0; 4];
+        for p in &partials {
+            for (s, v) in sums.iter_mut().zip(p) {
+                *s += v;
             }
-            g.par_iter_mut().for_each(|v| *v = Vec3::zeros());
         }
+        drop(guard);
         let mut b = Breakdown::default();
-        b.push(names::STRETCHING, m.stretching.eval(x, grad.as_deref_mut()));
-        if let Some(t) = &m.bending {
-            b.push(names::BENDING, t.eval(x, grad.as_deref_mut()));
+        b.push(names::STRETCHING, e_stretch);
+        if let Some(e) = e_bend {
+            b.push(names::BENDING, e);
         }
-        if let Some(t) = &self.inertia {
-            b.push(names::INERTIA, t.eval(x, grad.as_deref_mut()));
+        if inertia.is_some() {
+            b.push(names::INERTIA, sums[0]);
         }
-        b.push(names::GRAVITY, self.gravity.eval(x, grad.as_deref_mut()));
-        if let Some(t) = &self.external {
-            b.push(names::EXTERNAL, t.eval(x, grad.as_deref_mut()));
+        b.push(names::GRAVITY, sums[1]);
+        if external.is_some() {
+            b.push(names::EXTERNAL, sums[2]);
         }
-        if let Some(t) = &self.collision {
-            b.push(names::COLLISION, t.eval(x, grad.as_deref_mut()));
+        if collision.is_some() {
+            b.push(names::COLLISION, sums[3]);
         }
         if let Some(t) = &self.friction {
-            b.push(names::FRICTION, t.eval(x, grad.as_deref_mut()));
+            b.push(names::FRICTION, t.eval(x, Some(&mut *grad)));
         }
+        self.add_nonlocal(x, Some(grad), &mut b)?;
+        Ok(b)
+    }
+
+    /// The energy breakdown without a gradient, term by term.
+    fn evaluate_value(&self, x: &[Vec3]) -> Result<Breakdown, EnergyError> {
+        let m = self.model;
+        let mut b = Breakdown::default();
+        b.push(names::STRETCHING, m.stretching.eval(x, None));
+        if let Some(t) = &m.bending {
+            b.push(names::BENDING, t.eval(x, None));
+        }
+        if let Some(t) = &self.inertia {
+            b.push(names::INERTIA, t.eval(x, None));
+        }
+        b.push(names::GRAVITY, self.gravity.eval(x, None));
+        if let Some(t) = &self.external {
+            b.push(names::EXTERNAL, t.eval(x, None));
+        }
+        if let Some(t) = &self.collision {
+            b.push(names::COLLISION, t.eval(x, None));
+        }
+        if let Some(t) = &self.friction {
+            b.push(names::FRICTION, t.eval(x, None));
+        }
+        self.add_nonlocal(x, None, &mut b)?;
+        Ok(b)
+    }
+
+    /// Self-collision, area and repulsion: added to the breakdown and `grad`.
+    fn add_nonlocal(&self, x: &[Vec3], mut grad: Option<&mut [Vec3]>, b: &mut Breakdown) -> Result<(), EnergyError> {
+        let m = self.model;
         if let Some(t) = &m.self_collision {
             let v = t.eval(x, grad.as_deref_mut())?;
             let (vol, area) = t.parts();
@@ -325,7 +430,7 @@ impl FrameEnergy<'_> {
         if let Some(t) = &m.repulsion {
             b.push(names::REPULSION, t.eval(x, grad));
         }
-        Ok(b)
+        Ok(())
     }
 
     /// A new, empty Hessian with this model's sparsity pattern.
@@ -336,7 +441,69 @@ impl FrameEnergy<'_> {
     /// Fills `h` with the positive semi-definite approximation of `∂²E/∂x²` the reference
     /// solver uses: projected StVK, Gauss–Newton bending, inertia, collision and friction
     /// (the self-collision and repulsion terms contribute gradients only).
+    ///
+    /// Element Hessians are computed in parallel (stretching: exact, projected per face with a
+    /// fixed-size eigen decomposition; bending: its rank-one Gauss–Newton factors), then
+    /// each block row is summed by one task from the vertex's element corners in a fixed
+    /// order, so the result does not depend on thread scheduling. `h` must come from
+    /// [`FrameEnergy::hessian_pattern`]; blocks outside its pattern are ignored.
     pub fn hessian(&self, x: &[Vec3], h: &mut BlockSparse) {
+        let m = self.model;
+        let faces = &m.rest.faces;
+        let nf = faces.len();
+        let mut hf = vec![[[Matrix3::zeros(); 3]; 3]; nf];
+        let mut wb = vec![[Vec3::zeros(); 4]; m.bending.as_ref().map_or(0, |b| b.n_hinges())];
+        rayon::join(
+            || m.stretching.hessians_into(x, &mut hf),
+            || {
+                if let Some(b) = &m.bending {
+                    b.gauss_newton_factors(x, &mut wb);
+                }
+            },
+        );
+        let hinges = m.bending.as_ref().map_or(&[][..], |b| b.hinges());
+        let (inertia, collision) = (self.inertia.as_ref(), self.collision.as_ref());
+        h.par_rows_mut(|i, cols, row| {
+            row.iter_mut().for_each(|b| *b = Matrix3::zeros());
+            let find = |j: u32| cols.binary_search(&j).ok();
+            for &s in m.gather.slots(i) {
+                let s = s as usize;
+                if s < 3 * nf {
+                    let (f, k) = (s / 3, s % 3);
+                    for (l, &j) in faces[f].iter().enumerate() {
+                        if let Some(b) = find(j) {
+                            row[b] += hf[f][k][l];
+                        }
+                    }
+                } else {
+                    let (e, k) = ((s - 3 * nf) / 4, (s - 3 * nf) % 4);
+                    let w = &wb[e];
+                    for (l, &j) in hinges[e].vertices.iter().enumerate() {
+                        if let Some(b) = find(j) {
+                            row[b] += w[k] * w[l].transpose();
+                        }
+                    }
+                }
+            }
+            if let Some(b) = find(i as u32) {
+                if let Some(t) = inertia {
+                    row[b] += Matrix3::identity() * t.stiffness(i);
+                }
+                if let Some(c) = collision {
+                    row[b] += c.hessian(i, &x[i]);
+                }
+            }
+        });
+        if let Some(fr) = &self.friction {
+            for (i, m) in fr.hessians(x) {
+                h.add_diagonal(i, &m);
+            }
+        }
+    }
+
+    /// The same matrix as [`FrameEnergy::hessian`], assembled serially element by element
+    /// (the reference the parallel assembly is tested against).
+    pub fn hessian_serial(&self, x: &[Vec3], h: &mut BlockSparse) {
         h.clear();
         for (f, hf) in self.model.rest.faces.iter().zip(self.model.stretching.hessians(x)) {
             h.add_element(f, &hf);
@@ -347,9 +514,9 @@ impl FrameEnergy<'_> {
             }
         }
         for i in 0..x.len() {
-            let mut d = nalgebra::Matrix3::zeros();
+            let mut d = Matrix3::zeros();
             if let Some(t) = &self.inertia {
-                d += nalgebra::Matrix3::identity() * t.stiffness(i);
+                d += Matrix3::identity() * t.stiffness(i);
             }
             if let Some(c) = &self.collision {
                 d += c.hessian(i, &x[i]);

@@ -11,6 +11,7 @@ use rayon::prelude::*;
 use senc_geom::{TriMesh, Vec3};
 
 use crate::error::EnergyError;
+use crate::terms::inertia::per_vertex_eval;
 
 /// The contact data of one cloth vertex for one frame: its nearest body face at time t,
 /// that face's plane at t+1, and the body's displacement at the nearest point.
@@ -125,18 +126,20 @@ impl Collision {
         (self.epsilon - (x - p).dot(n)).max(0.0)
     }
 
+    /// Energy (J) and gradient (N) of vertex `i` at `x`.
+    #[inline(always)]
+    pub fn vertex(&self, i: usize, x: &Vec3) -> (f64, Vec3) {
+        let s = self.gap(i, x);
+        if s > 0.0 {
+            (self.weight * s * s * s, self.contacts[i].1 * (-3.0 * self.weight * s * s))
+        } else {
+            (0.0, Vec3::zeros())
+        }
+    }
+
     /// Energy (J), adding the gradient into `grad` when given.
     pub fn eval(&self, x: &[Vec3], grad: Option<&mut [Vec3]>) -> f64 {
-        let e: f64 = x.par_iter().enumerate().map(|(i, x)| self.weight * self.gap(i, x).powi(3)).sum();
-        if let Some(g) = grad {
-            g.par_iter_mut().zip(x).enumerate().for_each(|(i, (g, x))| {
-                let s = self.gap(i, x);
-                if s > 0.0 {
-                    *g -= self.contacts[i].1 * (3.0 * self.weight * s * s);
-                }
-            });
-        }
-        e
+        per_vertex_eval(x, grad, |i, x| self.vertex(i, x))
     }
 
     /// The diagonal Hessian block of vertex `i`.

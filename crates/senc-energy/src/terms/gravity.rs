@@ -2,9 +2,9 @@
 
 use std::sync::Arc;
 
-use rayon::prelude::*;
-
 use senc_geom::Vec3;
+
+use crate::terms::inertia::per_vertex_eval;
 
 /// Potential of a uniform acceleration `a` (m/s²): `E = −Σ_i m_i a · x_i` (J), gradient
 /// `−m_i a` (N), Hessian zero. Used twice: for gravity `g` and for the external
@@ -21,13 +21,15 @@ impl UniformField {
         Self { mass, acceleration }
     }
 
+    /// Energy (J) and gradient (N) of vertex `i` at `x`.
+    #[inline(always)]
+    pub fn vertex(&self, i: usize, x: &Vec3) -> (f64, Vec3) {
+        let m = self.mass[i];
+        (-m * self.acceleration.dot(x), self.acceleration * -m)
+    }
+
     /// Energy (J), adding the gradient into `grad` when given.
     pub fn eval(&self, x: &[Vec3], grad: Option<&mut [Vec3]>) -> f64 {
-        let a = self.acceleration;
-        let e: f64 = x.par_iter().zip(self.mass.par_iter()).map(|(x, m)| -m * a.dot(x)).sum();
-        if let Some(g) = grad {
-            g.par_iter_mut().zip(self.mass.par_iter()).for_each(|(g, m)| *g -= a * *m);
-        }
-        e
+        per_vertex_eval(x, grad, |i, x| self.vertex(i, x))
     }
 }
