@@ -1,6 +1,14 @@
-//! Self-intersection of a triangle mesh: a BVH broad phase over triangle boxes (parry's
-//! `Bvh`, self traversal, refit when only positions change) and an exact narrow phase of
-//! edge-versus-face crossings decided by [`crate::predicates::orient3d_sos`].
+//! Self-intersection of a triangle mesh: a BVH broad phase over triangle boxes (our own
+//! flat tree with leaves of a few faces, self traversal, refit when only positions change)
+//! and an exact narrow phase of edge-versus-face crossings decided by
+//! [`crate::predicates::orient3d_sos`], behind conservative float filters.
+//!
+//! # Performance
+//! Each face pair whose boxes overlap is filtered where the traversal finds it, with no pair
+//! list: faces sharing an edge, or one vertex whose ring is embedded (see
+//! [`embedded_rings`]), are dropped by comparing vertex ids; the rest take the sides of each
+//! face's vertices against the other face's float plane (exact predicate only when the float
+//! value is within its rounding bound) and reuse them for the edge tests.
 //!
 //! # Behavior
 //! - Triangles sharing an edge are skipped (in the perturbed general position they meet only
@@ -15,9 +23,6 @@
 
 use std::cmp::Ordering;
 
-use parry3d_f64::bounding_volume::Aabb;
-use parry3d_f64::math::Vector as PVec;
-use parry3d_f64::partitioning::{Bvh, BvhBuildStrategy, BvhWorkspace};
 use rayon::prelude::*;
 
 use crate::mesh::TriMesh;
@@ -86,39 +91,160 @@ impl SelfIntersections {
     }
 }
 
-/// Reusable broad phase: keeps the BVH between calls and refits it when positions change.
+/// Faces per BVH leaf. Leaves of a few faces keep the tree shallow; the face pairs inside
+/// a leaf pair are still each checked against their boxes before any other work.
+const LEAF_SIZE: usize = 4;
+
+/// Axis-aligned box, closed (touching boxes overlap).
+#[derive(Debug, Clone, Copy)]
+struct Aabb3 {
+    lo: [f64; 3],
+    hi: [f64; 3],
+}
+
+impl Aabb3 {
+    const EMPTY: Aabb3 = Aabb3 { lo: [f64::INFINITY; 3], hi: [f64::NEG_INFINITY; 3] };
+
+    #[inline]
+    fn of_triangle(a: Vec3, b: Vec3, c: Vec3) -> Self {
+        let lo = a.inf(&b).inf(&c);
+        let hi = a.sup(&b).sup(&c);
+        Aabb3 { lo: [lo.x, lo.y, lo.z], hi: [hi.x, hi.y, hi.z] }
+    }
+
+    #[inline]
+    fn overlaps(&self, o: &Aabb3) -> bool {
+        self.lo[0] <= o.hi[0]
+            && o.lo[0] <= self.hi[0]
+            && self.lo[1] <= o.hi[1]
+            && o.lo[1] <= self.hi[1]
+            && self.lo[2] <= o.hi[2]
+            && o.lo[2] <= self.hi[2]
+    }
+
+    #[inline]
+    fn union(&self, o: &Aabb3) -> Aabb3 {
+        Aabb3 {
+            lo: [self.lo[0].min(o.lo[0]), self.lo[1].min(o.lo[1]), self.lo[2].min(o.lo[2])],
+            hi: [self.hi[0].max(o.hi[0]), self.hi[1].max(o.hi[1]), self.hi[2].max(o.hi[2])],
+        }
+    }
+
+    /// Half the box's surface-area measure (for choosing which node to descend).
+    #[inline]
+    fn size(&self) -> f64 {
+        let d = [self.hi[0] - self.lo[0], self.hi[1] - self.lo[1], self.hi[2] - self.lo[2]];
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+    }
+}
+
+/// A BVH node: an inner node with children `a`, `b`, or a leaf over slots `a..b`.
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    bbox: Aabb3,
+    a: u32,
+    b: u32,
+    leaf: bool,
+}
+
+/// Vertex-ring shapes that decide which ring test applies (topology only).
+const RING_OTHER: u8 = 0;
+const RING_CLOSED: u8 = 1;
+const RING_OPEN: u8 = 2;
+
+/// Float plane of a face for the conservative side filter: a point `v` is certainly on the
+/// side `sign(n · (v − p))` when `(n · (v − p))² > tol2 · |v − p|²`. The tolerance bounds
+/// the rounding of the cross and dot products (a few ulp of `|q−p| |r−p| |v−p|`; we use
+/// 1e-13, far above it), so the filter never contradicts the exact predicate.
+#[derive(Debug, Clone, Copy)]
+struct FacePlane {
+    p: Vec3,
+    n: Vec3,
+    tol2: f64,
+}
+
+impl FacePlane {
+    const ZERO: FacePlane = FacePlane { p: Vec3::new(0.0, 0.0, 0.0), n: Vec3::new(0.0, 0.0, 0.0), tol2: 0.0 };
+
+    #[inline]
+    fn of_triangle(p: Vec3, q: Vec3, r: Vec3) -> Self {
+        let (a, b) = (q - p, r - p);
+        let tol = 1e-13 * a.norm() * b.norm();
+        FacePlane { p, n: a.cross(&b), tol2: tol * tol }
+    }
+}
+
+/// Reusable self-intersection finder: keeps its BVH between calls and refits it when only
+/// the positions change.
+///
+/// The BVH is built once over the faces (median splits of face centroids along the longest
+/// axis, leaves of [`LEAF_SIZE`] faces) and stores, per leaf slot, the face's vertex ids and
+/// group, so the self-traversal rejects neighbouring faces by comparing ids, without
+/// touching the mesh. Each face pair whose boxes overlap goes straight through the filters
+/// and the exact test; no pair list is materialised.
 pub struct SelfIntersector {
-    bvh: Bvh,
-    workspace: BvhWorkspace,
-    n_faces: usize,
-    pairs: Vec<[u32; 2]>,
+    /// The faces the tree was built for (rebuilt when a mesh with other faces comes).
+    faces: Vec<[u32; 3]>,
     /// Faces with the same nonzero group are never tested against each other.
     groups: Vec<u32>,
+    nodes: Vec<Node>,
+    /// Slot → face.
+    order: Vec<u32>,
+    /// Face → slot.
+    slot_of: Vec<u32>,
+    /// Per slot: the face's vertex ids and group (0 = none).
+    slot_faces: Vec<[u32; 3]>,
+    slot_groups: Vec<u32>,
+    /// Per vertex: [`RING_CLOSED`], [`RING_OPEN`] or [`RING_OTHER`].
+    ring_kind: Vec<u8>,
+    // Per-call buffers, reused.
+    boxes: Vec<Aabb3>,
+    planes: Vec<FacePlane>,
+    rings: Vec<bool>,
 }
 
 impl std::fmt::Debug for SelfIntersector {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SelfIntersector").field("n_faces", &self.n_faces).finish()
+        f.debug_struct("SelfIntersector")
+            .field("n_faces", &self.faces.len())
+            .field("n_nodes", &self.nodes.len())
+            .finish()
     }
-}
-
-fn face_aabb(mesh: &TriMesh, f: usize) -> Aabb {
-    let [a, b, c] = mesh.triangle(f);
-    let lo = a.inf(&b).inf(&c);
-    let hi = a.sup(&b).sup(&c);
-    Aabb::new(PVec::new(lo.x, lo.y, lo.z), PVec::new(hi.x, hi.y, hi.z))
 }
 
 impl SelfIntersector {
     /// Builds the BVH over `mesh`'s faces.
     pub fn new(mesh: &TriMesh) -> Self {
-        let leaves: Vec<Aabb> = (0..mesh.n_faces()).map(|f| face_aabb(mesh, f)).collect();
+        let n = mesh.n_faces();
+        let centroids: Vec<Vec3> = (0..n)
+            .map(|f| {
+                let [a, b, c] = mesh.triangle(f);
+                (a + b + c) / 3.0
+            })
+            .collect();
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 2);
+        if n > 0 {
+            build_node(&mut nodes, &mut order, 0, n, &centroids);
+        }
+        let mut slot_of = vec![0u32; n];
+        for (slot, &f) in order.iter().enumerate() {
+            slot_of[f as usize] = slot as u32;
+        }
+        let faces = mesh.faces().to_vec();
+        let slot_faces = order.iter().map(|&f| faces[f as usize]).collect();
         Self {
-            bvh: Bvh::from_leaves(BvhBuildStrategy::Binned, &leaves),
-            workspace: BvhWorkspace::default(),
-            n_faces: mesh.n_faces(),
-            pairs: Vec::new(),
+            slot_groups: vec![0; n],
+            ring_kind: ring_kinds(mesh),
+            faces,
             groups: Vec::new(),
+            nodes,
+            order,
+            slot_of,
+            slot_faces,
+            boxes: Vec::new(),
+            planes: Vec::new(),
+            rings: Vec::new(),
         }
     }
 
@@ -126,8 +252,11 @@ impl SelfIntersector {
     /// fan caps of closed holes: a fan's triangles share its centroid and are (nearly)
     /// coplanar, so testing them against each other is all exact-zero work and could only
     /// report crossings of the virtual cap with itself. Fans are still tested against every
-    /// other face.
+    /// other face. A `groups` of the wrong length is ignored.
     pub fn with_groups(mut self, groups: Vec<u32>) -> Self {
+        if groups.len() == self.faces.len() {
+            self.slot_groups = self.order.iter().map(|&f| groups[f as usize]).collect();
+        }
         self.groups = groups;
         self
     }
@@ -135,37 +264,261 @@ impl SelfIntersector {
     /// Crossings of `mesh` with itself. If `mesh` has the faces this intersector was built
     /// for, the BVH is refit to the new positions; otherwise it is rebuilt.
     pub fn find(&mut self, mesh: &TriMesh) -> SelfIntersections {
-        if mesh.n_faces() != self.n_faces {
+        if mesh.faces() != self.faces.as_slice() {
             let groups = std::mem::take(&mut self.groups);
-            *self = Self::new(mesh);
+            let mut fresh = Self::new(mesh);
             if groups.len() == mesh.n_faces() {
-                self.groups = groups;
+                fresh = fresh.with_groups(groups);
             }
-        } else {
-            for f in 0..mesh.n_faces() {
-                self.bvh.insert_or_update_partially(face_aabb(mesh, f), f as u32, 0.0);
-            }
-            self.bvh.refit_parallel(&mut self.workspace);
+            *self = fresh;
         }
-        let faces = mesh.faces();
-        // Parallel traversal; its pairs come in the sequential traversal's order, and the
-        // filter below keeps that order, so the output stays deterministic.
-        let bvh = &self.bvh;
-        let (raw, rings) = rayon::join(|| bvh.traverse_bvtt_single_tree_parallel::<false>(), || embedded_rings(mesh));
-        let groups = &self.groups;
-        let same_group =
-            |a: u32, b: u32| !groups.is_empty() && groups[a as usize] != 0 && groups[a as usize] == groups[b as usize];
-        self.pairs = raw
+        self.refit(mesh);
+        let ctx = Traversal {
+            mesh,
+            nodes: &self.nodes,
+            order: &self.order,
+            slot_faces: &self.slot_faces,
+            slot_groups: &self.slot_groups,
+            boxes: &self.boxes,
+            planes: &self.planes,
+            rings: &self.rings,
+        };
+        let tasks = ctx.tasks(64);
+        let acc = tasks
             .par_iter()
-            .with_min_len(1024)
-            .filter_map(|&(a, b)| {
-                let (fa, fb) = (faces[a as usize], faces[b as usize]);
-                let keep =
-                    a != b && !shares_edge(fa, fb) && !same_group(a, b) && !shared_vertex_is_flat(fa, fb, &rings);
-                keep.then(|| [a.min(b), a.max(b)])
+            .fold(Acc::default, |mut acc, &t| {
+                ctx.run(t, &mut acc);
+                acc
             })
-            .collect();
-        narrow_phase(mesh, &self.pairs)
+            .reduce(Acc::default, |mut a, mut b| {
+                if a.results.len() < b.results.len() {
+                    std::mem::swap(&mut a, &mut b);
+                }
+                a.results.append(&mut b.results);
+                a.candidates += b.candidates;
+                a
+            });
+        assemble(mesh, acc.results, acc.candidates)
+    }
+
+    /// Face boxes and planes (slot order), node boxes (bottom-up) and vertex rings for the
+    /// current positions.
+    fn refit(&mut self, mesh: &TriMesh) {
+        let n = self.order.len();
+        self.boxes.resize(n, Aabb3::EMPTY);
+        self.planes.resize(n, FacePlane::ZERO);
+        let pos = mesh.positions();
+        let slot_faces = &self.slot_faces;
+        self.boxes.par_iter_mut().zip(self.planes.par_iter_mut()).enumerate().with_min_len(1024).for_each(
+            |(slot, (bx, pl))| {
+                let [a, b, c] = slot_faces[slot].map(|v| pos[v as usize]);
+                *bx = Aabb3::of_triangle(a, b, c);
+                *pl = FacePlane::of_triangle(a, b, c);
+            },
+        );
+        for i in (0..self.nodes.len()).rev() {
+            let nd = self.nodes[i];
+            self.nodes[i].bbox = if nd.leaf {
+                self.boxes[nd.a as usize..nd.b as usize].iter().fold(Aabb3::EMPTY, |acc, b| acc.union(b))
+            } else {
+                self.nodes[nd.a as usize].bbox.union(&self.nodes[nd.b as usize].bbox)
+            };
+        }
+        self.rings.resize(mesh.n_vertices(), false);
+        let (planes, slot_of, kinds) = (&self.planes, &self.slot_of, &self.ring_kind);
+        self.rings.par_iter_mut().enumerate().with_min_len(512).for_each(|(s, r)| {
+            *r = ring_is_embedded(mesh, s as u32, kinds[s], |f| planes[slot_of[f as usize] as usize].n);
+        });
+    }
+}
+
+/// Builds the subtree over `order[lo..hi]` (median split of centroids along the longest
+/// axis, leaf sizes a multiple of [`LEAF_SIZE`] except the last); returns its node index.
+/// Parents come before their children in `nodes`.
+fn build_node(nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize, centroids: &[Vec3]) -> u32 {
+    let id = nodes.len();
+    nodes.push(Node { bbox: Aabb3::EMPTY, a: lo as u32, b: hi as u32, leaf: true });
+    if hi - lo <= LEAF_SIZE {
+        return id as u32;
+    }
+    let (mut cmin, mut cmax) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+    for &f in &order[lo..hi] {
+        cmin = cmin.inf(&centroids[f as usize]);
+        cmax = cmax.sup(&centroids[f as usize]);
+    }
+    let ext = cmax - cmin;
+    let axis = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
+    let n_leaves = (hi - lo).div_ceil(LEAF_SIZE);
+    let mid = lo + (n_leaves / 2) * LEAF_SIZE;
+    order[lo..hi].select_nth_unstable_by(mid - lo, |&a, &b| {
+        centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]).then(a.cmp(&b))
+    });
+    let l = build_node(nodes, order, lo, mid, centroids);
+    let r = build_node(nodes, order, mid, hi, centroids);
+    nodes[id] = Node { bbox: Aabb3::EMPTY, a: l, b: r, leaf: false };
+    id as u32
+}
+
+/// A unit of traversal work: the face pairs within one subtree, or between two subtrees
+/// whose boxes overlap.
+#[derive(Debug, Clone, Copy)]
+enum Task {
+    Within(u32),
+    Between(u32, u32),
+}
+
+#[derive(Default)]
+struct Acc {
+    results: Vec<PairResult>,
+    candidates: usize,
+}
+
+struct Traversal<'a> {
+    mesh: &'a TriMesh,
+    nodes: &'a [Node],
+    order: &'a [u32],
+    slot_faces: &'a [[u32; 3]],
+    slot_groups: &'a [u32],
+    boxes: &'a [Aabb3],
+    planes: &'a [FacePlane],
+    rings: &'a [bool],
+}
+
+impl Traversal<'_> {
+    /// Splits the root's work into at least `min_tasks` tasks where the tree allows, for
+    /// rayon to spread over the threads.
+    fn tasks(&self, min_tasks: usize) -> Vec<Task> {
+        if self.nodes.is_empty() {
+            return Vec::new();
+        }
+        let mut tasks = vec![Task::Within(0)];
+        loop {
+            let mut next = Vec::with_capacity(tasks.len() * 3);
+            let mut split_any = false;
+            for &t in &tasks {
+                split_any |= self.expand(t, &mut next);
+            }
+            tasks = next;
+            if !split_any || tasks.len() >= min_tasks {
+                return tasks;
+            }
+        }
+    }
+
+    /// Pushes the sub-tasks of `t` (or `t` itself when it is leaf-level); returns whether it
+    /// was split.
+    fn expand(&self, t: Task, out: &mut Vec<Task>) -> bool {
+        let nodes = self.nodes;
+        match t {
+            Task::Within(n) => {
+                let nd = nodes[n as usize];
+                if nd.leaf {
+                    out.push(t);
+                    return false;
+                }
+                out.push(Task::Within(nd.a));
+                out.push(Task::Within(nd.b));
+                if nodes[nd.a as usize].bbox.overlaps(&nodes[nd.b as usize].bbox) {
+                    out.push(Task::Between(nd.a, nd.b));
+                }
+                true
+            }
+            Task::Between(x, y) => {
+                let (nx, ny) = (nodes[x as usize], nodes[y as usize]);
+                if nx.leaf && ny.leaf {
+                    out.push(t);
+                    return false;
+                }
+                // Descend the node that is not a leaf, or the bigger one.
+                let split_x = !nx.leaf && (ny.leaf || nx.bbox.size() >= ny.bbox.size());
+                let (keep, split) = if split_x { (y, nx) } else { (x, ny) };
+                let kb = nodes[keep as usize].bbox;
+                for c in [split.a, split.b] {
+                    if nodes[c as usize].bbox.overlaps(&kb) {
+                        out.push(Task::Between(keep.min(c), keep.max(c)));
+                    }
+                }
+                true
+            }
+        }
+    }
+
+    /// Runs one task to the leaves.
+    fn run(&self, t: Task, acc: &mut Acc) {
+        let mut stack: smallvec::SmallVec<[Task; 64]> = smallvec::smallvec![t];
+        let mut scratch = Vec::with_capacity(4);
+        while let Some(t) = stack.pop() {
+            match t {
+                Task::Within(n) => {
+                    let nd = self.nodes[n as usize];
+                    if nd.leaf {
+                        for i in nd.a..nd.b {
+                            for j in i + 1..nd.b {
+                                self.visit(i, j, acc);
+                            }
+                        }
+                        continue;
+                    }
+                }
+                Task::Between(x, y) => {
+                    let (nx, ny) = (self.nodes[x as usize], self.nodes[y as usize]);
+                    if nx.leaf && ny.leaf {
+                        for i in nx.a..nx.b {
+                            for j in ny.a..ny.b {
+                                self.visit(i, j, acc);
+                            }
+                        }
+                        continue;
+                    }
+                }
+            }
+            scratch.clear();
+            self.expand(t, &mut scratch);
+            stack.extend(scratch.iter().copied());
+        }
+    }
+
+    /// Face pair in slots `i`, `j`: box check, neighbour filters, float plane filter, exact
+    /// test.
+    #[inline]
+    fn visit(&self, i: u32, j: u32, acc: &mut Acc) {
+        let (i, j) = (i as usize, j as usize);
+        if !self.boxes[i].overlaps(&self.boxes[j]) {
+            return;
+        }
+        let (fa, fb) = (self.slot_faces[i], self.slot_faces[j]);
+        let mut n_shared = 0;
+        let mut shared = 0;
+        for v in fa {
+            if v == fb[0] || v == fb[1] || v == fb[2] {
+                n_shared += 1;
+                shared = v;
+            }
+        }
+        if n_shared >= 2 {
+            return;
+        }
+        let gi = self.slot_groups[i];
+        if gi != 0 && gi == self.slot_groups[j] {
+            return;
+        }
+        if n_shared == 1 && self.rings[shared as usize] {
+            return;
+        }
+        acc.candidates += 1;
+        let (f, g) = (self.order[i], self.order[j]);
+        let (pf, pg) = (&self.planes[i], &self.planes[j]);
+        let r =
+            if f < g { test_pair_planes(self.mesh, f, g, pf, pg) } else { test_pair_planes(self.mesh, g, f, pg, pf) };
+        if let Some(r) = r {
+            acc.results.push(r);
+        }
     }
 }
 
@@ -174,33 +527,11 @@ pub fn self_intersections(mesh: &TriMesh) -> SelfIntersections {
     SelfIntersector::new(mesh).find(mesh)
 }
 
-/// Whether `f` and `g` share exactly one vertex whose ring of faces is embedded (see
-/// [`embedded_rings`]); such a pair cannot cross.
-fn shared_vertex_is_flat(f: [u32; 3], g: [u32; 3], rings: &[bool]) -> bool {
-    let mut shared = None;
-    for v in f {
-        if g.contains(&v) {
-            if shared.is_some() {
-                return false;
-            }
-            shared = Some(v);
-        }
-    }
-    shared.is_some_and(|v| rings[v as usize])
-}
-
-/// For each vertex, whether its ring of faces projects without overlap onto the plane normal
-/// to the ring's summed normal: every face spans a wedge around the vertex of angle in
-/// (1e-9, π − 1e-9), the faces form one fan (closed, or one open chain), and the wedges add
-/// up to one turn (closed ring) or less (open chain). The
-/// projection of face `(s, a, b)` lies inside its wedge, so two faces of an embedded ring
-/// that share only `s` have disjoint projections and cannot cross: the broad phase drops
-/// them before any predicate. The margins are far above the rounding of the angles, so the
-/// test never drops a pair the exact predicates would report. This removes most pairs on
-/// smooth or flat (even exactly coplanar) tessellations, where exact predicates are slow.
-pub fn embedded_rings(mesh: &TriMesh) -> Vec<bool> {
+/// Per vertex, the shape of its ring of faces (topology only): one closed fan (every
+/// neighbour in exactly two ring faces), one open fan (exactly two neighbours once, the rest
+/// twice), or anything else (a pinched or empty ring).
+fn ring_kinds(mesh: &TriMesh) -> Vec<u8> {
     let topo = mesh.topology();
-    let pos = mesh.positions();
     let faces = mesh.faces();
     (0..mesh.n_vertices() as u32)
         .into_par_iter()
@@ -208,96 +539,138 @@ pub fn embedded_rings(mesh: &TriMesh) -> Vec<bool> {
         .map(|s| {
             let ring = topo.vertex_faces(s);
             if ring.is_empty() {
-                return false;
+                return RING_OTHER;
             }
-            let n: Vec3 = ring.iter().map(|&f| mesh.face_normal_scaled(f as usize)).sum();
-            let nn = n.norm();
-            if nn.is_nan() || nn <= 0.0 || !nn.is_finite() {
-                return false;
-            }
-            let n = n / nn;
-            let helper = if n.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
-            let u = n.cross(&helper).normalize();
-            let w = n.cross(&u);
-            let ps = pos[s as usize];
-            let mut total = 0.0;
-            let mut neighbour_count: smallvec::SmallVec<[(u32, u8); 16]> = smallvec::SmallVec::new();
+            let mut count: smallvec::SmallVec<[(u32, u8); 16]> = smallvec::SmallVec::new();
             for &f in ring {
-                let fv = faces[f as usize];
-                let k = fv.iter().position(|&v| v == s).unwrap_or(0);
-                let (a, b) = (fv[(k + 1) % 3], fv[(k + 2) % 3]);
-                let (da, db) = (pos[a as usize] - ps, pos[b as usize] - ps);
-                let (xa, ya) = (da.dot(&u), da.dot(&w));
-                let (xb, yb) = (db.dot(&u), db.dot(&w));
-                let angle = (xa * yb - ya * xb).atan2(xa * xb + ya * yb);
-                if angle.is_nan() || angle <= 1e-9 || angle >= std::f64::consts::PI - 1e-9 {
-                    return false;
-                }
-                total += angle;
-                for v in [a, b] {
-                    match neighbour_count.iter_mut().find(|e| e.0 == v) {
-                        Some(e) => e.1 += 1,
-                        None => neighbour_count.push((v, 1)),
+                for v in faces[f as usize] {
+                    if v == s {
+                        continue;
+                    }
+                    match count.iter_mut().find(|e| e.0 == v) {
+                        Some(e) => e.1 = e.1.saturating_add(1),
+                        None => count.push((v, 1)),
                     }
                 }
             }
-            // One fan only: a closed ring (every neighbour twice) or a single open chain
-            // (exactly two neighbours once); anything else (a pinched vertex) is not used.
-            let n_once = neighbour_count.iter().filter(|e| e.1 == 1).count();
-            if neighbour_count.iter().any(|e| e.1 > 2) || (n_once != 0 && n_once != 2) {
-                return false;
-            }
-            let closed = n_once == 0;
-            let turn = std::f64::consts::TAU;
-            if closed {
-                total < turn + 1e-6
+            let n_once = count.iter().filter(|e| e.1 == 1).count();
+            if count.iter().any(|e| e.1 > 2) {
+                RING_OTHER
+            } else if n_once == 0 {
+                RING_CLOSED
+            } else if n_once == 2 {
+                RING_OPEN
             } else {
-                total < turn - 1e-6
+                RING_OTHER
             }
         })
         .collect()
 }
 
-fn shares_edge(f: [u32; 3], g: [u32; 3]) -> bool {
-    f.iter().filter(|v| g.contains(v)).count() >= 2
+/// For each vertex, whether its ring of faces projects without overlap onto the plane normal
+/// to the ring's summed normal (see [`ring_is_embedded`]); two faces of an embedded ring
+/// that share only that vertex cannot cross, and the broad phase drops them before any
+/// predicate. This removes most pairs on smooth or flat (even exactly coplanar)
+/// tessellations, where exact predicates are slow.
+pub fn embedded_rings(mesh: &TriMesh) -> Vec<bool> {
+    let kinds = ring_kinds(mesh);
+    let normals: Vec<Vec3> = (0..mesh.n_faces()).map(|f| mesh.face_normal_scaled(f)).collect();
+    (0..mesh.n_vertices() as u32)
+        .into_par_iter()
+        .with_min_len(512)
+        .map(|s| ring_is_embedded(mesh, s, kinds[s as usize], |f| normals[f as usize]))
+        .collect()
+}
+
+/// `sin` of the smallest wedge angle accepted (1e-9 rad); far above the rounding of the
+/// projected coordinates, so a wedge accepted in floats is a true, positive wedge.
+const MIN_WEDGE_SIN: f64 = 1e-9;
+
+/// Whether the ring of `s` is embedded in the projection along its summed normal `n`
+/// (`normal(f)` gives face `f`'s scaled normal): every face `(s, a, b)` spans a wedge of
+/// angle in (1e-9, π − 1e-9) around `s`, and the wedges cover the plane once (closed fan)
+/// or less than once with a margin of 1e-6 rad (open fan).
+///
+/// The projection of a face lies in its wedge, and a projection injective on each face maps
+/// a crossing point other than `s` to a point in two wedges, so two faces of an embedded
+/// ring that share only `s` cannot cross.
+///
+/// Closed fans are tested without trigonometry: with every wedge positive (checked with the
+/// margin `sin > 1e-9` on the cross product), the number of faces whose projected `a` lies
+/// on or below the positive `u` axis and whose `b` lies above it is the winding number of
+/// the projected link polygon around `s`, exact for the float-projected points, and equal
+/// to the true one because every edge of that polygon stays ≥ 1e-9 · (shorter side) away
+/// from `s`, far beyond the rounding. The fans cover the plane once exactly when it is 1.
+/// Open fans (boundary vertices) add the angles with `atan2`.
+fn ring_is_embedded(mesh: &TriMesh, s: u32, kind: u8, normal: impl Fn(u32) -> Vec3) -> bool {
+    if kind == RING_OTHER {
+        return false;
+    }
+    let topo = mesh.topology();
+    let pos = mesh.positions();
+    let faces = mesh.faces();
+    let ring = topo.vertex_faces(s);
+    let n: Vec3 = ring.iter().map(|&f| normal(f)).sum();
+    let nn = n.norm();
+    if !(nn.is_finite() && nn > 0.0) {
+        return false;
+    }
+    let n = n / nn;
+    let helper = if n.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
+    let u = n.cross(&helper).normalize();
+    let w = n.cross(&u);
+    let ps = pos[s as usize];
+    let mut winding = 0u32;
+    let mut total = 0.0;
+    for &f in ring {
+        let fv = faces[f as usize];
+        let k = if fv[0] == s {
+            0
+        } else if fv[1] == s {
+            1
+        } else {
+            2
+        };
+        let (a, b) = (fv[(k + 1) % 3], fv[(k + 2) % 3]);
+        let (da, db) = (pos[a as usize] - ps, pos[b as usize] - ps);
+        let (xa, ya) = (da.dot(&u), da.dot(&w));
+        let (xb, yb) = (db.dot(&u), db.dot(&w));
+        let cross = xa * yb - ya * xb;
+        let bound = MIN_WEDGE_SIN * MIN_WEDGE_SIN * (xa * xa + ya * ya) * (xb * xb + yb * yb);
+        // NaN fails both comparisons.
+        if !(cross > 0.0 && cross * cross > bound) {
+            return false;
+        }
+        if kind == RING_CLOSED {
+            winding += (ya <= 0.0 && yb > 0.0) as u32;
+        } else {
+            let angle = cross.atan2(xa * xb + ya * yb);
+            if !(angle > 1e-9 && angle < std::f64::consts::PI - 1e-9) {
+                return false;
+            }
+            total += angle;
+        }
+    }
+    if kind == RING_CLOSED {
+        winding == 1
+    } else {
+        total < std::f64::consts::TAU - 1e-6
+    }
 }
 
 /// A crossing found by one face pair: (edge as sorted vertex pair, face).
-#[derive(Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 struct Crossing {
     edge: [u32; 2],
     face: u32,
 }
 
+#[derive(Debug, PartialEq)]
 struct PairResult {
     faces: [u32; 2],
     loop_vertex: Option<u32>,
     crossings: [Option<Crossing>; 2],
     inconsistent: bool,
-}
-
-/// Float plane of a face for the conservative side filter: a point `v` is certainly on the
-/// side `sign(n · (v − p))` when `(n · (v − p))² > tol2 · |v − p|²`. The tolerance bounds
-/// the rounding of the cross and dot products (a few ulp of `|q−p| |r−p| |v−p|`; we use
-/// 1e-13, far above it), so the filter never contradicts the exact predicate.
-#[derive(Clone, Copy)]
-struct FacePlane {
-    p: Vec3,
-    n: Vec3,
-    tol2: f64,
-}
-
-fn face_planes(mesh: &TriMesh) -> Vec<FacePlane> {
-    (0..mesh.n_faces())
-        .into_par_iter()
-        .with_min_len(1024)
-        .map(|f| {
-            let [p, q, r] = mesh.triangle(f);
-            let (a, b) = (q - p, r - p);
-            let tol = 1e-13 * a.norm() * b.norm();
-            FacePlane { p, n: a.cross(&b), tol2: tol * tol }
-        })
-        .collect()
 }
 
 /// Side of `v` relative to the plane when the float evaluation is certain: `Some(true)` on
@@ -313,58 +686,8 @@ fn certain_side(plane: &FacePlane, v: Vec3) -> Option<bool> {
     }
 }
 
-/// Whether all given points are certainly on one side of the plane.
-#[inline]
-fn certainly_one_side(plane: &FacePlane, pts: &[Vec3]) -> bool {
-    let mut side = None;
-    for &v in pts {
-        match (certain_side(plane, v), side) {
-            (None, _) => return false,
-            (Some(s), None) => side = Some(s),
-            (Some(s), Some(t)) if s != t => return false,
-            _ => {}
-        }
-    }
-    true
-}
-
-/// Cheap float rejection: the (non-shared) vertices of one face are certainly on one side
-/// of the other face's plane. Never rejects a pair the exact test would accept.
-fn quick_reject(mesh: &TriMesh, planes: &[FacePlane], f: u32, g: u32) -> bool {
-    let fv = mesh.faces()[f as usize];
-    let gv = mesh.faces()[g as usize];
-    let pos = mesh.positions();
-    let mut own_f = [Vec3::zeros(); 3];
-    let mut own_g = [Vec3::zeros(); 3];
-    let (mut nf, mut ng) = (0, 0);
-    for k in 0..3 {
-        if !gv.contains(&fv[k]) {
-            own_f[nf] = pos[fv[k] as usize];
-            nf += 1;
-        }
-        if !fv.contains(&gv[k]) {
-            own_g[ng] = pos[gv[k] as usize];
-            ng += 1;
-        }
-    }
-    let f_clear = certainly_one_side(&planes[g as usize], &own_f[..nf]);
-    let g_clear = certainly_one_side(&planes[f as usize], &own_g[..ng]);
-    if nf == 3 {
-        // No shared vertex: one triangle wholly on one side of the other's plane.
-        f_clear || g_clear
-    } else {
-        // Shared vertex: only an opposite edge can cross; reject when neither can.
-        f_clear && g_clear
-    }
-}
-
-fn narrow_phase(mesh: &TriMesh, pairs: &[[u32; 2]]) -> SelfIntersections {
-    let planes = face_planes(mesh);
-    let results: Vec<PairResult> = pairs
-        .par_iter()
-        .with_min_len(256)
-        .filter_map(|&[f, g]| if quick_reject(mesh, &planes, f, g) { None } else { test_pair(mesh, f, g) })
-        .collect();
+/// Points and segments from the per-pair results, sorted (independent of their order).
+fn assemble(mesh: &TriMesh, results: Vec<PairResult>, n_candidate_pairs: usize) -> SelfIntersections {
     let topo = mesh.topology();
     let mut keys: Vec<(u32, u32)> = Vec::with_capacity(results.len() * 2);
     for r in &results {
@@ -398,7 +721,7 @@ fn narrow_phase(mesh: &TriMesh, pairs: &[[u32; 2]]) -> SelfIntersections {
         segments.push(Segment { faces: r.faces, ends });
     }
     segments.sort_unstable_by_key(|s| (s.faces, s.ends));
-    SelfIntersections { points, segments, n_candidate_pairs: pairs.len(), n_inconsistent_pairs: n_inconsistent }
+    SelfIntersections { points, segments, n_candidate_pairs, n_inconsistent_pairs: n_inconsistent }
 }
 
 fn sos(mesh: &TriMesh, idx: [u32; 4]) -> Ordering {
@@ -406,6 +729,7 @@ fn sos(mesh: &TriMesh, idx: [u32; 4]) -> Ordering {
 }
 
 /// Whether edge `{a, b}` crosses the interior of face `face` (no shared vertices).
+#[cfg(test)]
 fn edge_crosses_face(mesh: &TriMesh, edge: [u32; 2], face: [u32; 3]) -> bool {
     let [a, b] = edge;
     let [p, q, r] = face;
@@ -419,10 +743,128 @@ fn edge_crosses_face(mesh: &TriMesh, edge: [u32; 2], face: [u32; 3]) -> bool {
     s1 == s2 && s2 == sos(mesh, [a, b, r, p])
 }
 
+/// Sign of `orient3d(t[0], t[1], t[2], v)` (as [`orient3d_sos`]), where `plane` is face
+/// `t`'s float plane: from the plane when [`certain_side`] is sure (`n · (v − p) > 0`
+/// means `v` above, where `orient3d` is negative), from the exact predicate otherwise.
+#[inline]
+fn plane_side(mesh: &TriMesh, plane: &FacePlane, t: [u32; 3], v: u32) -> Ordering {
+    match certain_side(plane, mesh.positions()[v as usize]) {
+        Some(true) => Ordering::Less,
+        Some(false) => Ordering::Greater,
+        None => sos(mesh, [t[0], t[1], t[2], v]),
+    }
+}
+
+/// Whether the signs of `orient3d(a, b, p, q)`, `(a, b, q, r)` and `(a, b, r, p)` agree,
+/// that is, whether edge `{a, b}`, whose ends lie on opposite sides of face `(p, q, r)`,
+/// crosses its interior. Each sign is first taken from the float value
+/// `orient3d(a, b, x, y) = −(b − a) · ((x − a) × (y − a))` when it exceeds 1e-13 times the
+/// product of the three difference lengths (the rounding is below 50 ε of that product), and
+/// from [`orient3d_sos`] otherwise: the same decision as [`edge_crosses_face`].
+#[inline]
+fn edge_orients_agree(mesh: &TriMesh, edge: [u32; 2], face: [u32; 3]) -> bool {
+    let pos = mesh.positions();
+    let [a, b] = edge;
+    let pa = pos[a as usize];
+    let d = pos[b as usize] - pa;
+    let dn = d.norm_squared();
+    let w = face.map(|v| pos[v as usize] - pa);
+    let orient = |i: usize, j: usize| -> Ordering {
+        let v = d.dot(&w[i].cross(&w[j]));
+        let bound2 = 1e-26 * dn * w[i].norm_squared() * w[j].norm_squared();
+        if v * v > bound2 && v.is_finite() {
+            if v < 0.0 {
+                Ordering::Greater
+            } else {
+                Ordering::Less
+            }
+        } else {
+            sos(mesh, [a, b, face[i], face[j]])
+        }
+    };
+    let s1 = orient(0, 1);
+    s1 == orient(1, 2) && s1 == orient(2, 0)
+}
+
+/// [`test_pair`] for faces `f < g` with their float planes: the same result, with the signs
+/// of each face's vertices against the other face's plane taken once, from the planes where
+/// certain, and reused for the edges.
+fn test_pair_planes(mesh: &TriMesh, f: u32, g: u32, pf: &FacePlane, pg: &FacePlane) -> Option<PairResult> {
+    let fv = mesh.faces()[f as usize];
+    let gv = mesh.faces()[g as usize];
+    let mut shared = None;
+    let mut n_shared = 0;
+    for &v in &fv {
+        if gv.contains(&v) {
+            shared = Some(v);
+            n_shared += 1;
+        }
+    }
+    match (n_shared, shared) {
+        (0, _) => {
+            let sg = gv.map(|v| plane_side(mesh, pf, fv, v));
+            if sg[0] == sg[1] && sg[1] == sg[2] {
+                return None;
+            }
+            let sf = fv.map(|v| plane_side(mesh, pg, gv, v));
+            if sf[0] == sf[1] && sf[1] == sf[2] {
+                return None;
+            }
+            let mut found: [Option<Crossing>; 2] = [None, None];
+            let mut n = 0;
+            for (tri, other, other_id, signs) in [(fv, gv, g, sf), (gv, fv, f, sg)] {
+                for k in 0..3 {
+                    if signs[(k + 1) % 3] == signs[(k + 2) % 3] {
+                        continue;
+                    }
+                    let e = sorted(tri[(k + 1) % 3], tri[(k + 2) % 3]);
+                    if edge_orients_agree(mesh, e, other) {
+                        if n < 2 {
+                            found[n] = Some(Crossing { edge: e, face: other_id });
+                        }
+                        n += 1;
+                    }
+                }
+            }
+            match n {
+                0 => None,
+                _ => Some(PairResult { faces: [f, g], loop_vertex: None, crossings: found, inconsistent: n != 2 }),
+            }
+        }
+        (1, Some(s)) => {
+            let opposite = |t: [u32; 3]| {
+                let k = t.iter().position(|&v| v == s).unwrap_or(0);
+                sorted(t[(k + 1) % 3], t[(k + 2) % 3])
+            };
+            let mut found: [Option<Crossing>; 2] = [None, None];
+            let mut n = 0;
+            for (tri, other, other_id, plane) in [(fv, gv, g, pg), (gv, fv, f, pf)] {
+                let e = opposite(tri);
+                if plane_side(mesh, plane, other, e[0]) == plane_side(mesh, plane, other, e[1]) {
+                    continue;
+                }
+                if edge_orients_agree(mesh, e, other) {
+                    if n < 2 {
+                        found[n] = Some(Crossing { edge: e, face: other_id });
+                    }
+                    n += 1;
+                }
+            }
+            match n {
+                0 => None,
+                _ => Some(PairResult { faces: [f, g], loop_vertex: Some(s), crossings: found, inconsistent: n != 1 }),
+            }
+        }
+        _ => None,
+    }
+}
+
 fn sorted(a: u32, b: u32) -> [u32; 2] {
     [a.min(b), a.max(b)]
 }
 
+/// The reference pair test, all from [`orient3d_sos`] (kept for tests of the faster path).
+#[cfg(test)]
 fn test_pair(mesh: &TriMesh, f: u32, g: u32) -> Option<PairResult> {
     let fv = mesh.faces()[f as usize];
     let gv = mesh.faces()[g as usize];
@@ -535,5 +977,181 @@ pub fn barycentric(x: Vec3, p: Vec3, q: Vec3, r: Vec3) -> [f64; 3] {
         b.map(|v| v / s)
     } else {
         [1.0 / 3.0; 3]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shapes;
+    use rand::{Rng, SeedableRng};
+
+    /// Every face pair with overlapping boxes through the reference test: no BVH, no ring or
+    /// plane filters.
+    fn brute_force(mesh: &TriMesh) -> SelfIntersections {
+        let n = mesh.n_faces();
+        let boxes: Vec<Aabb3> = (0..n)
+            .map(|f| {
+                let [a, b, c] = mesh.triangle(f);
+                Aabb3::of_triangle(a, b, c)
+            })
+            .collect();
+        let mut results = Vec::new();
+        for f in 0..n {
+            for g in f + 1..n {
+                if boxes[f].overlaps(&boxes[g]) {
+                    results.extend(test_pair(mesh, f as u32, g as u32));
+                }
+            }
+        }
+        assemble(mesh, results, 0)
+    }
+
+    #[test]
+    fn bvh_and_filters_find_every_crossing_of_the_brute_force() {
+        let mut meshes: Vec<(String, TriMesh)> = Vec::new();
+        for name in [
+            "boxes_overlap_grid",
+            "boxes_touch_grid",
+            "bent_tube_jitter",
+            "folded_sheet_grid",
+            "icospheres_overlap_grid",
+        ] {
+            let m = shapes::fixture(name).unwrap();
+            let closed = crate::close_holes(&m, &crate::HoleSelection::All).unwrap().mesh().clone();
+            meshes.push((name.to_string(), m));
+            meshes.push((format!("{name} closed"), closed));
+        }
+        // Crumpled, grid-snapped spheres: many exact degeneracies and self-crossings.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        for k in 0..4 {
+            let s = shapes::icosphere(Vec3::zeros(), 1.0, 2).unwrap();
+            let p: Vec<Vec3> = s
+                .positions()
+                .iter()
+                .map(|p| {
+                    let q = p + Vec3::new(
+                        rng.random_range(-0.4..0.4),
+                        rng.random_range(-0.4..0.4),
+                        rng.random_range(-0.4..0.4),
+                    );
+                    if k % 2 == 0 {
+                        (q * 4.0).map(f64::round) / 4.0
+                    } else {
+                        q
+                    }
+                })
+                .collect();
+            meshes.push((format!("crumpled {k}"), s.with_positions(p).unwrap()));
+        }
+        let mut total_segments = 0;
+        let mut compared = 0;
+        for (name, m) in &meshes {
+            if m.n_faces() > 12_000 {
+                continue;
+            }
+            compared += 1;
+            let fast = self_intersections(m);
+            let slow = brute_force(m);
+            assert_eq!(fast.points, slow.points, "{name}");
+            assert_eq!(fast.segments, slow.segments, "{name}");
+            assert_eq!(fast.n_inconsistent_pairs, slow.n_inconsistent_pairs, "{name}");
+            total_segments += fast.segments.len();
+        }
+        assert!(compared >= 14, "{compared} meshes compared");
+        assert!(total_segments > 500, "the meshes should cross themselves: {total_segments}");
+    }
+
+    #[test]
+    fn plane_pair_test_matches_the_reference() {
+        // Random pairs sharing no or one vertex, half snapped to a coarse grid (exact
+        // coplanarities, vertices on faces, collinear edges).
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let mut hits = 0;
+        for case in 0..20_000 {
+            let snap = case % 2 == 0;
+            let p: Vec<Vec3> = (0..6)
+                .map(|_| {
+                    let v = Vec3::new(
+                        rng.random_range(-1.0..1.0),
+                        rng.random_range(-1.0..1.0),
+                        rng.random_range(-1.0..1.0),
+                    );
+                    if snap {
+                        (v * 2.0).map(f64::round) / 2.0
+                    } else {
+                        v
+                    }
+                })
+                .collect();
+            let shared = case % 3 == 0;
+            let f1 = [0u32, 1, 2];
+            let f2 = if shared { [0u32, 4, 5] } else { [3u32, 4, 5] };
+            let Ok(m) = TriMesh::new(p, vec![f1, f2]) else { continue };
+            let planes: Vec<FacePlane> = (0..2)
+                .map(|f| {
+                    let [a, b, c] = m.triangle(f);
+                    FacePlane::of_triangle(a, b, c)
+                })
+                .collect();
+            let want = test_pair(&m, 0, 1);
+            hits += want.is_some() as usize;
+            assert_eq!(test_pair_planes(&m, 0, 1, &planes[0], &planes[1]), want, "case {case}");
+        }
+        assert!(hits > 1000, "{hits}");
+    }
+
+    #[test]
+    fn closed_ring_winding_test_agrees_with_angle_sums() {
+        // On smooth and crumpled closed meshes, the winding count accepts a closed ring
+        // exactly when the wedge angles (each in (1e-9, π − 1e-9)) add up to one turn.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut accepted = 0;
+        let mut rejected = 0;
+        for amp in [0.0, 0.05, 0.3, 0.8] {
+            let s = shapes::icosphere(Vec3::zeros(), 1.0, 3).unwrap();
+            let p: Vec<Vec3> = s
+                .positions()
+                .iter()
+                .map(|p| {
+                    p + Vec3::new(
+                        rng.random_range(-amp..=amp),
+                        rng.random_range(-amp..=amp),
+                        rng.random_range(-amp..=amp),
+                    )
+                })
+                .collect();
+            let m = s.with_positions(p).unwrap();
+            let rings = embedded_rings(&m);
+            for (v, &r) in rings.iter().enumerate() {
+                let v = v as u32;
+                let ring = m.topology().vertex_faces(v);
+                let n: Vec3 = ring.iter().map(|&f| m.face_normal_scaled(f as usize)).sum::<Vec3>().normalize();
+                let helper = if n.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
+                let u = n.cross(&helper).normalize();
+                let w = n.cross(&u);
+                let ps = m.positions()[v as usize];
+                let mut total = 0.0;
+                let mut ok = true;
+                for &f in ring {
+                    let fv = m.faces()[f as usize];
+                    let k = fv.iter().position(|&x| x == v).unwrap();
+                    let (da, db) =
+                        (m.positions()[fv[(k + 1) % 3] as usize] - ps, m.positions()[fv[(k + 2) % 3] as usize] - ps);
+                    let (xa, ya, xb, yb) = (da.dot(&u), da.dot(&w), db.dot(&u), db.dot(&w));
+                    let angle = (xa * yb - ya * xb).atan2(xa * xb + ya * yb);
+                    ok &= angle > 1e-9 && angle < std::f64::consts::PI - 1e-9;
+                    total += angle;
+                }
+                let want = ok && (total - std::f64::consts::TAU).abs() < 1e-6;
+                assert_eq!(r, want, "vertex {v}, amplitude {amp}, total {total}");
+                if r {
+                    accepted += 1
+                } else {
+                    rejected += 1
+                }
+            }
+        }
+        assert!(accepted > 100 && rejected > 100, "{accepted} {rejected}");
     }
 }

@@ -1,5 +1,9 @@
 //! Where the time of one penetration query goes, phase by phase, on the garment benchmark
 //! mesh: `cargo run --release -p senc-gia --example profile_gia`.
+//!
+//! `profile_gia detect N` (or `analyse N`, `total N`) runs only that phase N times and
+//! prints nothing else, for CPU-time measurements with `perf stat -e task-clock` on a busy
+//! machine.
 
 use std::time::Instant;
 
@@ -12,6 +16,28 @@ use senc_gia::{GiaOptions, GiaWorkspace};
 fn main() {
     let closure = close_holes(&garment_benchmark().unwrap(), &HoleSelection::All).unwrap();
     let mesh = closure.mesh();
+    let args: Vec<String> = std::env::args().collect();
+    if args.len() == 3 {
+        let n: usize = args[2].parse().expect("a repeat count");
+        let mut ix = SelfIntersector::new(mesh).with_groups(closure.fan_groups());
+        let inter = ix.find(mesh);
+        let mut ws = GiaWorkspace::new(&closure);
+        let mut times = Vec::with_capacity(n);
+        for _ in 0..n {
+            let t = Instant::now();
+            match args[1].as_str() {
+                "detect" => drop(std::hint::black_box(ix.find(mesh))),
+                "analyse" => drop(std::hint::black_box(ws.analyse(&closure, &inter, &GiaOptions::default()))),
+                _ => drop(std::hint::black_box(ws.penetration(&closure, &GiaOptions::default()).unwrap())),
+            }
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+        times.sort_by(f64::total_cmp);
+        if n > 0 {
+            println!("{} x{n}: min {:.3} ms, median {:.3} ms", args[1], times[0], times[n / 2]);
+        }
+        return;
+    }
     let reps = 20;
     let mut ix = SelfIntersector::new(mesh).with_groups(closure.fan_groups());
     let inter = ix.find(mesh);
