@@ -102,4 +102,12 @@ fn main() {
     measure("all_with_repulsion", n / 10 + 1, || {
         f.evaluate(&x, Some(&mut g)).unwrap();
     });
+    let rep = senc_energy::terms::repulsion::Repulsion::new(rest.topology_arc(), 1e-4, 0.02);
+    println!("repulsion: {} non-adjacent pairs", rep.pairs(&x).len());
+    measure("repulsion_eval_with_gradient", n / 10 + 1, || {
+        rep.eval(&x, Some(&mut g));
+    });
+    measure("radius_pairs_only (senc-geom)", n / 10 + 1, || {
+        senc_geom::neighbors::radius_pairs(&x, 0.02);
+    });
 }

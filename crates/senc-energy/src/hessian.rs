@@ -150,6 +150,67 @@ impl BlockSparse {
     }
 }
 
+/// Projects a symmetric 9×9 triangle Hessian that is invariant under translation (every
+/// block row sums to zero, as for any energy of the edge vectors only) onto the positive
+/// semi-definite cone, with a 6×6 eigen decomposition instead of 9×9.
+///
+/// Such a matrix maps the translations `1 ⊗ v` to zero, so its eigenvectors are those
+/// three (eigenvalue 0, kept by the projection) and six in the orthogonal complement,
+/// spanned by `Q = [u1 ⊗ I, u2 ⊗ I]` with `u1 = (1, −1, 0)/√2`, `u2 = (1, 1, −2)/√6`. Hence
+/// `P(H) = Q P(QᵀHQ) Qᵀ`: the same result as [`project_spd`] up to rounding, at about a
+/// third of the cost. Returns unchanged when `QᵀHQ` is already PSD.
+pub fn project_spd_translation_invariant(h: &mut [[Matrix3<f64>; 3]; 3]) {
+    let u = [
+        [std::f64::consts::FRAC_1_SQRT_2, -std::f64::consts::FRAC_1_SQRT_2, 0.0],
+        [1.0 / 6f64.sqrt(), 1.0 / 6f64.sqrt(), -2.0 / 6f64.sqrt()],
+    ];
+    let mut m = SMatrix::<f64, 6, 6>::zeros();
+    for p in 0..2 {
+        for q in 0..2 {
+            let mut b = Matrix3::zeros();
+            for k in 0..3 {
+                for l in 0..3 {
+                    let w = u[p][k] * u[q][l];
+                    if w != 0.0 {
+                        b += h[k][l] * w;
+                    }
+                }
+            }
+            m.fixed_view_mut::<3, 3>(3 * p, 3 * q).copy_from(&b);
+        }
+    }
+    // Symmetrise the rounding of the reduction.
+    let m = 0.5 * (m + m.transpose());
+    let eig = SymmetricEigen::new(m);
+    if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
+        return;
+    }
+    let v = &eig.eigenvectors;
+    let mut scaled = *v;
+    for (j, l) in eig.eigenvalues.iter().enumerate() {
+        scaled.column_mut(j).scale_mut(l.max(0.0));
+    }
+    let m = scaled * v.transpose();
+    let b = [
+        [m.fixed_view::<3, 3>(0, 0).into_owned(), m.fixed_view::<3, 3>(0, 3).into_owned()],
+        [m.fixed_view::<3, 3>(3, 0).into_owned(), m.fixed_view::<3, 3>(3, 3).into_owned()],
+    ];
+    for k in 0..3 {
+        for l in 0..3 {
+            let mut s = Matrix3::zeros();
+            for p in 0..2 {
+                for q in 0..2 {
+                    let w = u[p][k] * u[q][l];
+                    if w != 0.0 {
+                        s += b[p][q] * w;
+                    }
+                }
+            }
+            h[k][l] = s;
+        }
+    }
+}
+
 /// Projects a symmetric 9×9 matrix given as 3×3 blocks (a triangle's element Hessian) onto
 /// the positive semi-definite cone: negative eigenvalues are clamped to zero. Fixed-size
 /// (stack) eigen decomposition; the input is returned unchanged when it is already PSD.

@@ -176,3 +176,41 @@ fn fixed_size_projection_is_psd_and_keeps_psd_input() {
         }
     }
 }
+
+#[test]
+fn reduced_projection_equals_full_projection_on_translation_invariant_matrices() {
+    use senc_energy::hessian::project_spd_translation_invariant;
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    let mut projected = 0;
+    for trial in 0..50 {
+        // H = Bᵀ A B with B the edge-vector map (x0 − x2, x1 − x2): translation invariant.
+        let a = SMatrix::<f64, 6, 6>::from_fn(|_, _| rng.random_range(-1.0..1.0));
+        let a = if trial % 5 == 0 { a.transpose() * a } else { a + a.transpose() };
+        let mut b = SMatrix::<f64, 6, 9>::zeros();
+        for r in 0..3 {
+            b[(r, r)] = 1.0;
+            b[(r, 6 + r)] = -1.0;
+            b[(3 + r, 3 + r)] = 1.0;
+            b[(3 + r, 6 + r)] = -1.0;
+        }
+        let m = b.transpose() * a * b;
+        let mut full = [[Matrix3::zeros(); 3]; 3];
+        for k in 0..3 {
+            for l in 0..3 {
+                full[k][l] = m.fixed_view::<3, 3>(3 * k, 3 * l).into_owned();
+            }
+        }
+        let mut reduced = full;
+        project_spd(&mut full);
+        project_spd_translation_invariant(&mut reduced);
+        let tol = 1e-12 * m.amax();
+        for k in 0..3 {
+            for l in 0..3 {
+                let err = (full[k][l] - reduced[k][l]).amax();
+                assert!(err <= tol, "trial {trial}: block ({k}, {l}) differs by {err:e}");
+            }
+        }
+        projected += usize::from(SymmetricEigen::new(a).eigenvalues.iter().any(|&l| l < 0.0));
+    }
+    assert!(projected >= 30, "most trials must need a projection ({projected})");
+}

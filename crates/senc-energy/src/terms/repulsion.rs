@@ -2,8 +2,13 @@
 
 use std::sync::Arc;
 
+use rayon::prelude::*;
+
 use senc_geom::neighbors::radius_pairs;
 use senc_geom::{Topology, Vec3};
+
+/// Candidate pairs per parallel task.
+const PAIR_CHUNK: usize = 2048;
 
 /// Repulsion: `E = −w Σ_{(i,j)} log(‖x_i − x_j‖² / τ²)` (J) over vertex pairs closer
 /// than τ (m) that share no mesh edge; the pairs are found at the evaluated `x`.
@@ -35,22 +40,43 @@ impl Repulsion {
     }
 
     /// Energy (J), adding the gradient into `grad` when given.
-    pub fn eval(&self, x: &[Vec3], mut grad: Option<&mut [Vec3]>) -> f64 {
+    ///
+    /// The candidate pairs come from the parallel hash grid; the edge filter, the logarithms
+    /// and the per-pair gradients run in parallel over fixed chunks of pairs, and the chunk
+    /// results are reduced in chunk order (energy) and added pair by pair in pair order
+    /// (gradient), so the result does not depend on thread scheduling.
+    pub fn eval(&self, x: &[Vec3], grad: Option<&mut [Vec3]>) -> f64 {
         let tau2 = self.threshold * self.threshold;
         let floor = 1e-12 * tau2;
-        let mut e = 0.0;
-        for [i, j] in self.pairs(x) {
-            let d = x[i as usize] - x[j as usize];
-            let d2 = d.norm_squared();
-            e -= self.weight * (d2.max(floor) / tau2).ln();
-            if let Some(g) = grad.as_deref_mut() {
-                if d2 > floor {
-                    let gi = d * (-2.0 * self.weight / d2);
+        let with_grad = grad.is_some();
+        let candidates = radius_pairs(x, self.threshold);
+        let chunks: Vec<(f64, Vec<([u32; 2], Vec3)>)> = candidates
+            .par_chunks(PAIR_CHUNK)
+            .map(|chunk| {
+                let mut e = 0.0;
+                let mut forces = Vec::new();
+                for &[i, j] in chunk {
+                    if self.topology.find_edge(i, j).is_some() {
+                        continue;
+                    }
+                    let d = x[i as usize] - x[j as usize];
+                    let d2 = d.norm_squared();
+                    e -= self.weight * (d2.max(floor) / tau2).ln();
+                    if with_grad && d2 > floor {
+                        forces.push(([i, j], d * (-2.0 * self.weight / d2)));
+                    }
+                }
+                (e, forces)
+            })
+            .collect();
+        if let Some(g) = grad {
+            for (_, forces) in &chunks {
+                for &([i, j], gi) in forces {
                     g[i as usize] += gi;
                     g[j as usize] -= gi;
                 }
             }
         }
-        e
+        chunks.iter().map(|c| c.0).sum()
     }
 }

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use senc_geom::Vec3;
 
-use crate::hessian::project_spd;
+use crate::hessian::project_spd_translation_invariant;
 use crate::rest::RestState;
 use crate::scatter::{ordered_sum, Scatter, ELEMENT_CHUNK};
 
@@ -163,7 +163,8 @@ impl Stretching {
         });
     }
 
-    /// The exact Hessian of one face, projected to positive semi-definite: for each unit
+    /// The exact Hessian of one face, projected to positive semi-definite (the energy depends
+    /// on edge vectors only, so the 6×6 reduced projection applies): for each unit
     /// direction of `x_k` (corner k, axis a), the directional derivative of
     /// `∂E/∂Ds = A h F S Dm⁻ᵀ` gives column (k, a).
     fn face_hessian(&self, fd: &FaceData, x: &[Vec3]) -> [[Matrix3<f64>; 3]; 3] {
@@ -199,7 +200,7 @@ impl Stretching {
                 }
             }
         }
-        project_spd(&mut h);
+        project_spd_translation_invariant(&mut h);
         h
     }
 }
