@@ -10,6 +10,9 @@ use senc_geom::{Topology, Vec3};
 /// Candidate pairs per parallel task.
 const PAIR_CHUNK: usize = 2048;
 
+/// A pair and the gradient of its term at its first vertex (minus at the second), N.
+type PairForce = ([u32; 2], Vec3);
+
 /// Repulsion: `E = −w Σ_{(i,j)} log(‖x_i − x_j‖² / τ²)` (J) over vertex pairs closer
 /// than τ (m) that share no mesh edge; the pairs are found at the evaluated `x`.
 ///
@@ -50,7 +53,7 @@ impl Repulsion {
         let floor = 1e-12 * tau2;
         let with_grad = grad.is_some();
         let candidates = radius_pairs(x, self.threshold);
-        let chunks: Vec<(f64, Vec<([u32; 2], Vec3)>)> = candidates
+        let chunks: Vec<(f64, Vec<PairForce>)> = candidates
             .par_chunks(PAIR_CHUNK)
             .map(|chunk| {
                 let mut e = 0.0;
