@@ -138,6 +138,74 @@ impl Aabb3 {
     }
 }
 
+/// The boxes of one leaf's (up to [`LEAF_SIZE`]) faces in single precision, rounded
+/// outward (so never smaller than the true boxes), one array per bound and axis, for
+/// testing one face against a whole leaf at once. Unused lanes hold empty boxes.
+#[derive(Debug, Clone, Copy)]
+struct LeafBoxes {
+    lo: [[f32; LEAF_SIZE]; 3],
+    hi: [[f32; LEAF_SIZE]; 3],
+}
+
+impl LeafBoxes {
+    const EMPTY: LeafBoxes = LeafBoxes { lo: [[f32::INFINITY; LEAF_SIZE]; 3], hi: [[f32::NEG_INFINITY; LEAF_SIZE]; 3] };
+
+    /// Bit `k` set when lane `k`'s box overlaps lane `lane`'s box of `other`. Written lane-
+    /// parallel (no early exit) so the compiler can use 4-wide comparisons.
+    #[inline(always)]
+    fn overlap_mask(&self, other: &LeafBoxes, lane: usize) -> u32 {
+        let mut ok = [0u32; LEAF_SIZE];
+        for (k, o) in ok.iter_mut().enumerate() {
+            *o = ((other.lo[0][lane] <= self.hi[0][k]) as u32)
+                & ((self.lo[0][k] <= other.hi[0][lane]) as u32)
+                & ((other.lo[1][lane] <= self.hi[1][k]) as u32)
+                & ((self.lo[1][k] <= other.hi[1][lane]) as u32)
+                & ((other.lo[2][lane] <= self.hi[2][k]) as u32)
+                & ((self.lo[2][k] <= other.hi[2][lane]) as u32);
+        }
+        ok.iter().enumerate().fold(0, |m, (k, &o)| m | (o << k))
+    }
+}
+
+/// `x` rounded to an `f32` not above it.
+#[inline]
+fn f32_down(x: f64) -> f32 {
+    let y = x as f32;
+    if (y as f64) > x {
+        f32_step(y, false)
+    } else {
+        y
+    }
+}
+
+/// `x` rounded to an `f32` not below it.
+#[inline]
+fn f32_up(x: f64) -> f32 {
+    let y = x as f32;
+    if (y as f64) < x {
+        f32_step(y, true)
+    } else {
+        y
+    }
+}
+
+/// The neighbouring `f32` of a non-NaN `y` upward or downward (`f32::next_up` /
+/// `next_down`, which are newer than this crate's minimum Rust version).
+#[inline]
+fn f32_step(y: f32, up: bool) -> f32 {
+    if y == 0.0 {
+        let tiny = f32::from_bits(1);
+        return if up { tiny } else { -tiny };
+    }
+    let bits = y.to_bits();
+    // Away from zero increments the magnitude bits; toward zero decrements them.
+    if (y > 0.0) == up {
+        f32::from_bits(bits + 1)
+    } else {
+        f32::from_bits(bits - 1)
+    }
+}
+
 /// A BVH node: an inner node with children `a`, `b`, or a leaf over slots `a..b`.
 #[derive(Debug, Clone, Copy)]
 struct Node {
@@ -180,7 +248,9 @@ impl FacePlane {
 /// The BVH is built once over the faces (median splits of face centroids along the longest
 /// axis, leaves of [`LEAF_SIZE`] faces) and stores, per leaf slot, the face's vertex ids and
 /// group, so the self-traversal rejects neighbouring faces by comparing ids, without
-/// touching the mesh. Each face pair whose boxes overlap goes straight through the filters
+/// touching the mesh. At the leaves, one face's box is tested against a whole leaf's boxes
+/// at once, in single precision rounded outward (boxes only ever grow, so no overlapping
+/// pair is missed; a few touching pairs more reach the exact test). Each face pair whose boxes overlap goes straight through the filters
 /// and the exact test; no pair list is materialised.
 pub struct SelfIntersector {
     /// The faces the tree was built for (rebuilt when a mesh with other faces comes).
@@ -199,6 +269,8 @@ pub struct SelfIntersector {
     ring_kind: Vec<u8>,
     // Per-call buffers, reused.
     boxes: Vec<Aabb3>,
+    /// Per group of [`LEAF_SIZE`] slots (every leaf is one such group).
+    lanes: Vec<LeafBoxes>,
     planes: Vec<FacePlane>,
     rings: Vec<bool>,
 }
@@ -243,6 +315,7 @@ impl SelfIntersector {
             slot_of,
             slot_faces,
             boxes: Vec::new(),
+            lanes: Vec::new(),
             planes: Vec::new(),
             rings: Vec::new(),
         }
@@ -279,7 +352,7 @@ impl SelfIntersector {
             order: &self.order,
             slot_faces: &self.slot_faces,
             slot_groups: &self.slot_groups,
-            boxes: &self.boxes,
+            lanes: &self.lanes,
             planes: &self.planes,
             rings: &self.rings,
         };
@@ -316,6 +389,16 @@ impl SelfIntersector {
                 *pl = FacePlane::of_triangle(a, b, c);
             },
         );
+        self.lanes.clear();
+        self.lanes.resize(n.div_ceil(LEAF_SIZE), LeafBoxes::EMPTY);
+        for (slot, b) in self.boxes.iter().enumerate() {
+            let l = &mut self.lanes[slot / LEAF_SIZE];
+            let k = slot % LEAF_SIZE;
+            for ax in 0..3 {
+                l.lo[ax][k] = f32_down(b.lo[ax]);
+                l.hi[ax][k] = f32_up(b.hi[ax]);
+            }
+        }
         for i in (0..self.nodes.len()).rev() {
             let nd = self.nodes[i];
             self.nodes[i].bbox = if nd.leaf {
@@ -385,7 +468,7 @@ struct Traversal<'a> {
     order: &'a [u32],
     slot_faces: &'a [[u32; 3]],
     slot_groups: &'a [u32],
-    boxes: &'a [Aabb3],
+    lanes: &'a [LeafBoxes],
     planes: &'a [FacePlane],
     rings: &'a [bool],
 }
@@ -451,53 +534,84 @@ impl Traversal<'_> {
 
     /// Runs one task to the leaves.
     fn run(&self, t: Task, acc: &mut Acc) {
+        let nodes = self.nodes;
         let mut stack: smallvec::SmallVec<[Task; 64]> = smallvec::smallvec![t];
-        let mut scratch = Vec::with_capacity(4);
         while let Some(t) = stack.pop() {
             match t {
                 Task::Within(n) => {
-                    let nd = self.nodes[n as usize];
+                    let nd = nodes[n as usize];
                     if nd.leaf {
-                        for i in nd.a..nd.b {
-                            for j in i + 1..nd.b {
-                                self.visit(i, j, acc);
-                            }
+                        self.leaf_within(nd.a, nd.b, acc);
+                    } else {
+                        stack.push(Task::Within(nd.a));
+                        stack.push(Task::Within(nd.b));
+                        if nodes[nd.a as usize].bbox.overlaps(&nodes[nd.b as usize].bbox) {
+                            stack.push(Task::Between(nd.a, nd.b));
                         }
-                        continue;
                     }
                 }
                 Task::Between(x, y) => {
-                    let (nx, ny) = (self.nodes[x as usize], self.nodes[y as usize]);
+                    let (nx, ny) = (nodes[x as usize], nodes[y as usize]);
                     if nx.leaf && ny.leaf {
-                        for i in nx.a..nx.b {
-                            for j in ny.a..ny.b {
-                                self.visit(i, j, acc);
-                            }
-                        }
+                        self.leaf_between(nx.a, nx.b, ny.a, acc);
                         continue;
+                    }
+                    let split_x = !nx.leaf && (ny.leaf || nx.bbox.size() >= ny.bbox.size());
+                    let (keep, split) = if split_x { (y, nx) } else { (x, ny) };
+                    let kb = nodes[keep as usize].bbox;
+                    for c in [split.a, split.b] {
+                        if nodes[c as usize].bbox.overlaps(&kb) {
+                            stack.push(Task::Between(keep, c));
+                        }
                     }
                 }
             }
-            scratch.clear();
-            self.expand(t, &mut scratch);
-            stack.extend(scratch.iter().copied());
         }
     }
 
-    /// Face pair in slots `i`, `j`: box check, neighbour filters, float plane filter, exact
-    /// test.
+    /// Face pairs inside the leaf over slots `a..b`.
     #[inline]
-    fn visit(&self, i: u32, j: u32, acc: &mut Acc) {
-        let (i, j) = (i as usize, j as usize);
-        if !self.boxes[i].overlaps(&self.boxes[j]) {
-            return;
+    fn leaf_within(&self, a: u32, b: u32, acc: &mut Acc) {
+        let lanes = &self.lanes[a as usize / LEAF_SIZE];
+        for i in a..b {
+            let lane = i as usize % LEAF_SIZE;
+            // Lanes after `i` only; empty lanes never overlap.
+            let mut mask = lanes.overlap_mask(lanes, lane) & !((2u32 << lane) - 1);
+            while mask != 0 {
+                let k = mask.trailing_zeros();
+                mask &= mask - 1;
+                self.pair(i, a + k, acc);
+            }
         }
+    }
+
+    /// Face pairs between the leaf over slots `a..b` and the leaf starting at slot `c`.
+    #[inline]
+    fn leaf_between(&self, a: u32, b: u32, c: u32, acc: &mut Acc) {
+        let la = &self.lanes[a as usize / LEAF_SIZE];
+        let lc = &self.lanes[c as usize / LEAF_SIZE];
+        for i in a..b {
+            let mut mask = lc.overlap_mask(la, i as usize % LEAF_SIZE);
+            while mask != 0 {
+                let k = mask.trailing_zeros();
+                mask &= mask - 1;
+                self.pair(i, c + k, acc);
+            }
+        }
+    }
+
+    /// Face pair in slots `i`, `j` whose boxes overlap: neighbour filters by vertex ids,
+    /// then the pair test.
+    #[inline(always)]
+    fn pair(&self, i: u32, j: u32, acc: &mut Acc) {
+        let (i, j) = (i as usize, j as usize);
         let (fa, fb) = (self.slot_faces[i], self.slot_faces[j]);
-        let mut n_shared = 0;
+        let mut n_shared = 0u32;
         let mut shared = 0;
         for v in fa {
-            if v == fb[0] || v == fb[1] || v == fb[2] {
-                n_shared += 1;
+            let hit = (v == fb[0]) | (v == fb[1]) | (v == fb[2]);
+            n_shared += hit as u32;
+            if hit {
                 shared = v;
             }
         }
@@ -512,6 +626,11 @@ impl Traversal<'_> {
             return;
         }
         acc.candidates += 1;
+        self.test(i, j, acc);
+    }
+
+    #[inline(never)]
+    fn test(&self, i: usize, j: usize, acc: &mut Acc) {
         let (f, g) = (self.order[i], self.order[j]);
         let (pf, pg) = (&self.planes[i], &self.planes[j]);
         let r =
@@ -1060,6 +1179,19 @@ mod tests {
         }
         assert!(compared >= 14, "{compared} meshes compared");
         assert!(total_segments > 500, "the meshes should cross themselves: {total_segments}");
+    }
+
+    #[test]
+    fn f32_rounding_is_outward() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
+        for _ in 0..10_000 {
+            let x: f64 = rng.random_range(-1.0..1.0) * 10f64.powi(rng.random_range(-40..38));
+            assert!((f32_down(x) as f64) <= x && (f32_up(x) as f64) >= x, "{x}");
+            assert!(f32_up(x) as f64 - f32_down(x) as f64 <= 2.0 * (x.abs() * 1.2e-7 + 1.5e-45), "{x}");
+        }
+        for x in [0.0, -0.0, 1e300, -1e300, f64::INFINITY, f64::NEG_INFINITY] {
+            assert!((f32_down(x) as f64) <= x && (f32_up(x) as f64) >= x, "{x}");
+        }
     }
 
     #[test]
