@@ -535,7 +535,8 @@ impl Traversal<'_> {
     /// Runs one task to the leaves.
     fn run(&self, t: Task, acc: &mut Acc) {
         let nodes = self.nodes;
-        let mut stack: smallvec::SmallVec<[Task; 64]> = smallvec::smallvec![t];
+        let mut stack = Vec::with_capacity(64);
+        stack.push(t);
         while let Some(t) = stack.pop() {
             match t {
                 Task::Within(n) => {
@@ -606,18 +607,18 @@ impl Traversal<'_> {
     fn pair(&self, i: u32, j: u32, acc: &mut Acc) {
         let (i, j) = (i as usize, j as usize);
         let (fa, fb) = (self.slot_faces[i], self.slot_faces[j]);
-        let mut n_shared = 0u32;
-        let mut shared = 0;
-        for v in fa {
-            let hit = (v == fb[0]) | (v == fb[1]) | (v == fb[2]);
-            n_shared += hit as u32;
-            if hit {
-                shared = v;
-            }
-        }
+        let hit = fa.map(|v| (v == fb[0]) | (v == fb[1]) | (v == fb[2]));
+        let n_shared = hit[0] as u32 + hit[1] as u32 + hit[2] as u32;
         if n_shared >= 2 {
             return;
         }
+        let shared = if hit[0] {
+            fa[0]
+        } else if hit[1] {
+            fa[1]
+        } else {
+            fa[2]
+        };
         let gi = self.slot_groups[i];
         if gi != 0 && gi == self.slot_groups[j] {
             return;
@@ -874,6 +875,46 @@ fn plane_side(mesh: &TriMesh, plane: &FacePlane, t: [u32; 3], v: u32) -> Orderin
     }
 }
 
+/// Whether two faces sharing no vertex are certainly apart: along the in-plane normal
+/// `a = n × e` of some edge `e = q − p` of either face (pointing away from that face's third
+/// vertex), every vertex `w` of the other face has `a · (w − p) > 1e-12 |a| (|w − p| + |e|)`.
+/// The face itself reaches at most about `3 ε |a| |e|` along `a` (exactly 0 at `p`, and `a`
+/// is perpendicular to `e` up to rounding), and the rounding of each dot product is a few
+/// `ε |a| |w − p|`, so the faces are a positive distance apart and no perturbation can make
+/// them cross. Used for nearly coplanar pairs, where the plane sides are undecided.
+fn separated_by_edge_normal(pos: &[Vec3], fv: [u32; 3], gv: [u32; 3], pf: &FacePlane, pg: &FacePlane) -> bool {
+    for (t, o, pl) in [(fv, gv, pf), (gv, fv, pg)] {
+        let tp = t.map(|v| pos[v as usize]);
+        let op = o.map(|v| pos[v as usize]);
+        'edges: for k in 0..3 {
+            let (p, q, r) = (tp[k], tp[(k + 1) % 3], tp[(k + 2) % 3]);
+            let e = q - p;
+            let mut a = pl.n.cross(&e);
+            let an = a.norm_squared();
+            let dr = r - p;
+            let sr = a.dot(&dr);
+            // The third vertex must be clearly on the inner side (non-degenerate face).
+            let inner_clear = sr * sr > 1e-24 * an * dr.norm_squared();
+            if !inner_clear {
+                continue;
+            }
+            if sr > 0.0 {
+                a = -a;
+            }
+            let en = e.norm_squared();
+            for w in op {
+                let d = w - p;
+                let s = a.dot(&d);
+                if !(s > 0.0 && s * s > 4e-24 * an * d.norm_squared().max(en)) {
+                    continue 'edges;
+                }
+            }
+            return true;
+        }
+    }
+    false
+}
+
 /// Whether the signs of `orient3d(a, b, p, q)`, `(a, b, q, r)` and `(a, b, r, p)` agree,
 /// that is, whether edge `{a, b}`, whose ends lie on opposite sides of face `(p, q, r)`,
 /// crosses its interior. Each sign is first taken from the float value
@@ -921,11 +962,31 @@ fn test_pair_planes(mesh: &TriMesh, f: u32, g: u32, pf: &FacePlane, pg: &FacePla
     }
     match (n_shared, shared) {
         (0, _) => {
-            let sg = gv.map(|v| plane_side(mesh, pf, fv, v));
+            let pos = mesh.positions();
+            let cg = gv.map(|v| certain_side(pf, pos[v as usize]));
+            let cf = fv.map(|v| certain_side(pg, pos[v as usize]));
+            for c in [cg, cf] {
+                if let [Some(a), Some(b), Some(c)] = c {
+                    if a == b && b == c {
+                        return None;
+                    }
+                }
+            }
+            // Nearly coplanar: try to separate the faces within the plane before any exact
+            // predicate.
+            if (cg.contains(&None) || cf.contains(&None)) && separated_by_edge_normal(pos, fv, gv, pf, pg) {
+                return None;
+            }
+            let resolve = |c: Option<bool>, t: [u32; 3], v: u32| match c {
+                Some(true) => Ordering::Less,
+                Some(false) => Ordering::Greater,
+                None => sos(mesh, [t[0], t[1], t[2], v]),
+            };
+            let sg = [0, 1, 2].map(|k| resolve(cg[k], fv, gv[k]));
             if sg[0] == sg[1] && sg[1] == sg[2] {
                 return None;
             }
-            let sf = fv.map(|v| plane_side(mesh, pg, gv, v));
+            let sf = [0, 1, 2].map(|k| resolve(cf[k], gv, fv[k]));
             if sf[0] == sf[1] && sf[1] == sf[2] {
                 return None;
             }
