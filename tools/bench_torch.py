@@ -2,8 +2,13 @@
 """The senc-model network in PyTorch (CPU), timed on the same graph as the Rust benchmark.
 
 Usage:
-    cargo run -p senc-model --example bench_model -- --export /tmp/senc-graph
-    python tools/bench_torch.py --graph /tmp/senc-graph [--reps 3] [--threads 2] [--split]
+    cargo xtask bench model --export /tmp/senc-bench      # or --torch, which runs this script
+    python3 tools/bench_torch.py --graph /tmp/senc-bench/graph [--reps 3] [--threads 2] [--split]
+        [--small 32,4,1] [--quick] [--json OUT.json]
+
+Sizes, in the order `cargo xtask bench model` prints them: --small (latent, blocks, hidden
+layers; default the t-shirt config's 32,4,1), HOOD with one block, full HOOD (latent 128,
+15 blocks, 2 hidden layers; one rep with --quick).
 
 Same architecture as crates/senc-model/src/network.rs: node and per-edge-type encoders,
 message-passing blocks e' = e + MLP([e, h_r, h_s]) per edge type and
@@ -111,11 +116,13 @@ def read_u32(path):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--graph", required=True, help="STEM given to bench_model --export")
+    ap.add_argument("--graph", required=True, help="DIR/graph, DIR as given to cargo xtask bench model --export")
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--split", action="store_true")
-    ap.add_argument("--quick", action="store_true", help="skip the full HOOD size")
+    ap.add_argument("--quick", action="store_true", help="full HOOD size with one rep only")
+    ap.add_argument("--small", default="32,4,1", help="latent,blocks,hidden of the small size")
+    ap.add_argument("--json", help="also write the times (seconds) to this JSON file")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     torch.manual_seed(0)
@@ -131,11 +138,15 @@ def main():
     print(f"torch {torch.__version__}, threads {torch.get_num_threads()}, "
           f"load {' '.join(open('/proc/loadavg').read().split()[:3])}")
     print(f"graph: {n} nodes, edges " + ", ".join(f"{k} {v}" for k, v in meta["edges"].items()))
-    configs = [("small-cpu (32, 4 blocks, 1 hidden)", 32, 4, 1), ("hood, 1 block (128, 2 hidden)", 128, 1, 2)]
-    if not args.quick:
-        configs.append(("hood (128, 15 blocks, 2 hidden)", 128, 15, 2))
+    sl, sb, sh = (int(v) for v in args.small.split(","))
+    configs = [
+        (f"config ({sl}, {sb} blocks, {sh} hidden)", sl, sb, sh, args.reps),
+        ("hood, 1 block (128, 2 hidden)", 128, 1, 2, args.reps),
+        ("hood (128, 15 blocks, 2 hidden)", 128, 15, 2, 1 if args.quick else args.reps),
+    ]
     form = "split" if args.split else "cat"
-    for label, latent, blocks, hidden in configs:
+    rows = []
+    for label, latent, blocks, hidden, reps in configs:
         net = Net(meta["node_features"], meta["edge_features"], latent, blocks, hidden, split=args.split)
         g = torch.rand(meta["n_cloth"], 3)
 
@@ -148,10 +159,14 @@ def main():
             x = net(nodes, feats, graph, meta["n_cloth"])
             (x * g).sum().backward()
 
-        tf = median_time(args.reps, fwd)
-        tb = median_time(args.reps, fwd_bwd)
+        tf = median_time(reps, fwd)
+        tb = median_time(reps, fwd_bwd)
+        rows.append({"label": label, "forward": tf, "forward_backward": tb})
         print(f"{label:36} [{form}] | forward {tf * 1e3:8.1f} ms | forward+backward {tb * 1e3:8.1f} ms")
     print(f"load at end: {' '.join(open('/proc/loadavg').read().split()[:3])}")
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"torch": torch.__version__, "threads": torch.get_num_threads(), "form": form, "rows": rows}, fh)
 
 
 if __name__ == "__main__":

@@ -22,6 +22,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{CommandFactory, Parser, Subcommand};
 
+mod bench;
 mod check_mesh;
 mod data;
 mod energy;
@@ -177,6 +178,12 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Benchmarks (`bench model`: the network on the t-shirt graph, optionally against PyTorch).
+    Bench {
+        /// What to time.
+        #[command(subcommand)]
+        target: bench::Target,
+    },
     /// Draw the body and the garment at a frame of a scene motion (PNG).
     Preview {
         /// Scene config (TOML with a [scene] table).
@@ -233,6 +240,7 @@ fn main() -> std::process::ExitCode {
         Some(Command::Simulate { checkpoint, motion, config, wind, frames, out }) => {
             simulate::run(&checkpoint, config.as_deref(), &motion, wind.as_deref(), frames, &out)
         }
+        Some(Command::Bench { target }) => bench::run(target),
         Some(Command::Preview { config, frame, motion, out, size }) => {
             preview::run(&config, frame, motion.as_deref(), &out, size)
         }

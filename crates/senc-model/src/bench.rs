@@ -1,6 +1,6 @@
 //! Timing of graph building, the network (inference and forward + backward) and its main
-//! operations on seeded synthetic scenes. Run by `cargo run -p senc-model --example
-//! bench_model`; the same graphs can be exported for `tools/bench_torch.py`.
+//! operations. Run by `cargo xtask bench model` (on the real t-shirt graph); the graphs can be
+//! exported for `tools/bench_torch.py`.
 //!
 //! Times are wall-clock medians over `reps` runs after one warm-up run. The machine may be
 //! shared: report the load average next to the numbers and compare ratios from one run.
@@ -10,7 +10,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use burn::module::Module;
-use burn::nn::LayerNormConfig;
+use burn::nn::{LayerNormConfig, LinearConfig};
 use burn::tensor::{Device, IndexingUpdateOp, Int, Tensor, TensorData};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -58,6 +58,25 @@ pub fn bench_graph(n: usize, reps: usize) -> (usize, [usize; 3], f64, crate::gra
     (g.n_cloth, counts, secs, stages)
 }
 
+/// Builds the graph of `frame` once and times building it again (median of `reps`).
+/// Returns the graph, the per-stage times of the median run and its total seconds.
+pub fn bench_build(
+    frame: &crate::graph::FrameState<'_>,
+    config: &GraphConfig,
+    reps: usize,
+) -> Result<(GraphInputs, crate::graph::BuildTimings, f64), crate::ModelError> {
+    let (graph, _) = GraphInputs::build_timed(frame, config)?;
+    let mut runs: Vec<(f64, crate::graph::BuildTimings)> = Vec::new();
+    for _ in 0..reps.max(1) {
+        let t0 = Instant::now();
+        let (_, st) = GraphInputs::build_timed(frame, config)?;
+        runs.push((t0.elapsed().as_secs_f64(), st));
+    }
+    runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (secs, stages) = runs[runs.len() / 2];
+    Ok((graph, stages, secs))
+}
+
 /// One row of the network benchmark.
 #[derive(Debug, Clone)]
 pub struct NetTiming {
@@ -73,9 +92,9 @@ pub struct NetTiming {
     pub forward_backward: f64,
 }
 
-/// Times `config` on `graph`: inference on a plain flex device and forward + backward on an
-/// autodiff one.
-pub fn bench_network(label: &str, config: &ModelConfig, graph: &GraphInputs, reps: usize) -> NetTiming {
+/// Times `config` on `graph`: inference on a plain flex device and, with `backward`, forward +
+/// backward on an autodiff one (NaN otherwise).
+pub fn bench_network(label: &str, config: &ModelConfig, graph: &GraphInputs, reps: usize, backward: bool) -> NetTiming {
     let device = Device::flex();
     let mut model = Model::new(config.clone(), GraphConfig::default(), 1, &device.clone().autodiff());
     model.normalizers.update_inputs(graph);
@@ -92,10 +111,14 @@ pub fn bench_network(label: &str, config: &ModelConfig, graph: &GraphInputs, rep
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let g: Vec<Vec3> = (0..graph.n_cloth).map(|_| Vec3::new(rng.random(), rng.random(), rng.random())).collect();
     let ad_tensors = model.tensors(graph);
-    let forward_backward = time_median(reps, || {
-        let x = model.forward_tensors(&ad_tensors);
-        let _grads = surrogate_backward(x, &g).expect("shapes match");
-    });
+    let forward_backward = if backward {
+        time_median(reps, || {
+            let x = model.forward_tensors(&ad_tensors);
+            let _grads = surrogate_backward(x, &g).expect("shapes match");
+        })
+    } else {
+        f64::NAN
+    };
     NetTiming { label: label.to_string(), params, upload, forward, forward_backward }
 }
 
@@ -122,6 +145,7 @@ pub fn bench_ops(graph: &GraphInputs, l: usize, reps: usize) -> Vec<(String, f64
         let w = rand_t(l, l);
         let idx: Tensor<1, Int> = index_tensor(&set.receivers, &device);
         let ln = LayerNormConfig::new(l).init(&device);
+        let lin = LinearConfig::new(l, l).init(&device);
         let finish = |t: Tensor<2>| {
             if autodiff {
                 let _ = t.sum().backward();
@@ -140,7 +164,15 @@ pub fn bench_ops(graph: &GraphInputs, l: usize, reps: usize) -> Vec<(String, f64
                     finish(z.select_assign(0, idx.clone(), ev.clone(), IndexingUpdateOp::Add))
                 }),
             ),
-            (format!("layernorm [{e},{l}]"), time_median(reps, || finish(ln.forward(ev.clone())))),
+            (format!("layernorm (burn) [{e},{l}]"), time_median(reps, || finish(ln.forward(ev.clone())))),
+            (
+                format!("linear + layernorm (burn) [{e},{l}]"),
+                time_median(reps, || finish(ln.forward(lin.forward(ev.clone())))),
+            ),
+            (
+                format!("linear + layernorm (senc) [{e},{l}]"),
+                time_median(reps, || finish(crate::network::linear_layer_norm(ev.clone(), &lin, &ln))),
+            ),
             (format!("relu [{e},{l}]"), time_median(reps, || finish(burn::tensor::activation::relu(ev.clone())))),
             (format!("add [{e},{l}]"), time_median(reps, || finish(ev.clone() + ev.clone()))),
         ];

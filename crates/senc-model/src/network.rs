@@ -11,6 +11,7 @@ use burn::config::Config;
 use burn::module::Module;
 use burn::nn::{LayerNorm, LayerNormConfig, Linear, LinearConfig};
 use burn::tensor::activation::relu;
+use burn::tensor::module::linear;
 use burn::tensor::{Device, IndexingUpdateOp, Tensor};
 
 use crate::convert::GraphTensors;
@@ -126,7 +127,7 @@ impl Mlp {
         let n_hidden = c.hidden_layers.max(1);
         let mut layers: Vec<Linear> = (1..n_hidden).map(|_| LinearConfig::new(hidden, hidden).init(device)).collect();
         layers.push(LinearConfig::new(hidden, out).init(device));
-        let norm = norm.then(|| LayerNormConfig::new(out).init(device));
+        let norm = norm.then(|| LayerNormConfig::new(out).with_epsilon(LAYER_NORM_EPSILON).init(device));
         Self { first, layers, norm }
     }
 
@@ -138,20 +139,51 @@ impl Mlp {
 
     /// Everything after the first layer's pre-activation: ReLU, the other layers, LayerNorm.
     /// `[n, hidden] → [n, out]`.
+    ///
+    /// On an autodiff device the last layer and the LayerNorm run as [`linear_layer_norm`]
+    /// (cheaper to differentiate); otherwise burn's fused LayerNorm kernel does the norm.
     fn finish(&self, pre: Tensor<2>) -> Tensor<2> {
         let mut x = pre;
-        for layer in &self.layers {
+        let (last, inner) = self.layers.split_last().expect("an MLP has at least one layer");
+        for layer in inner {
             x = layer.forward(relu(x));
         }
         match &self.norm {
-            Some(norm) => norm.forward(x),
-            None => x,
+            Some(norm) if x.is_autodiff() => linear_layer_norm(relu(x), last, norm),
+            Some(norm) => norm.forward(last.forward(relu(x))),
+            None => last.forward(relu(x)),
         }
     }
 
     /// The whole MLP on a single-part input. `[n, d_0] → [n, out]`.
     fn forward(&self, x: Tensor<2>) -> Tensor<2> {
         self.finish(self.part(0, x))
+    }
+}
+
+/// The ε of every LayerNorm (burn's default), added to the variance.
+pub const LAYER_NORM_EPSILON: f64 = 1e-5;
+
+/// `LayerNorm(x·W + b)` written so that its autodiff graph is cheap: the mean subtraction is
+/// folded into the layer, `c = x·(W − W·1/L·1ᵀ) + (b − mean b)` (each row of `c` then has mean
+/// zero exactly, up to rounding), so no `[n, L]` broadcast subtraction and no division is
+/// recorded: `y = c · (mean(c²) + ε)^(−1/2) · γ + β`.
+///
+/// Equal to burn's `norm.forward(layer.forward(x))` to f32 rounding, in values and gradients
+/// (tested). `x`: `[n, d_in]`, weight `[d_in, L]` → `[n, L]`.
+pub fn linear_layer_norm(x: Tensor<2>, layer: &Linear, norm: &LayerNorm) -> Tensor<2> {
+    let w = layer.weight.val(); // [d_in, L]
+    let w_centred = w.clone() - w.mean_dim(1); // [d_in, L], rows of mean 0
+    let b_centred = layer.bias.as_ref().map(|b| {
+        let b = b.val(); // [L]
+        b.clone() - b.mean()
+    });
+    let c = linear(x, w_centred, b_centred); // [n, L], rows of mean 0
+    let inv_std = (c.clone().square().mean_dim(1) + LAYER_NORM_EPSILON).sqrt().recip(); // [n, 1]
+    let y = c * inv_std * norm.gamma.val().unsqueeze::<2>(); // [n, L]
+    match &norm.beta {
+        Some(beta) => y + beta.val().unsqueeze::<2>(),
+        None => y,
     }
 }
 
@@ -221,5 +253,79 @@ impl Network {
             h = h + block.node.finish(node_pre); // [N, L]
         }
         self.decoder.forward(h.narrow(0, 0, g.n_cloth)) // [n_cloth, 3]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use burn::tensor::TensorData;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    use super::*;
+    use crate::convert::tensor_to_f64;
+
+    fn random(rng: &mut ChaCha8Rng, shape: [usize; 2], scale: f32, device: &Device) -> Tensor<2> {
+        let v: Vec<f32> = (0..shape[0] * shape[1]).map(|_| scale * rng.random_range(-1.0f32..1.0)).collect();
+        Tensor::from_data(TensorData::new(v, shape), device)
+    }
+
+    fn assert_close(what: &str, a: Tensor<2>, b: Tensor<2>) {
+        let (a, b) = (tensor_to_f64(a), tensor_to_f64(b));
+        assert_eq!(a.len(), b.len());
+        let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let diff = a.iter().zip(&b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        assert!(scale > 1e-3, "{what}: all zero");
+        assert!(diff <= 2e-5 * scale, "{what}: difference {diff} at scale {scale}");
+    }
+
+    /// The hand-written linear + LayerNorm equals burn's `Linear` then `LayerNorm` in values
+    /// and in the gradients of the input, the weight, the bias, γ and β.
+    #[test]
+    fn linear_layer_norm_matches_burn_in_values_and_gradients() {
+        let device = Device::flex().autodiff();
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let (n, d_in, l) = (37, 12, 16);
+        device.seed(4);
+        let layer = LinearConfig::new(d_in, l).init(&device);
+        let mut norm = LayerNormConfig::new(l).with_epsilon(LAYER_NORM_EPSILON).init(&device);
+        // Non-trivial γ and β (burn starts them at 1 and 0).
+        norm.gamma = burn::module::Param::from_tensor(random(&mut rng, [1, l], 1.5, &device).reshape([l]) + 1.0);
+        norm.beta = Some(burn::module::Param::from_tensor(random(&mut rng, [1, l], 0.5, &device).reshape([l])));
+        // Rows with an offset, so that the mean subtraction matters.
+        let x = (random(&mut rng, [n, d_in], 2.0, &device) + 3.0).require_grad();
+        let g = random(&mut rng, [n, l], 1.0, &device);
+
+        let ours = linear_layer_norm(x.clone(), &layer, &norm);
+        let theirs = norm.forward(layer.forward(x.clone()));
+        assert_close("values", ours.clone(), theirs.clone());
+        // The inference path (burn's fused kernel on a plain device) agrees too.
+        let plain = norm.valid().forward(layer.valid().forward(x.clone().inner()));
+        assert_close("inference", ours.clone().inner(), plain);
+
+        let grads_ours = (ours * g.clone()).sum().backward();
+        let grads_theirs = (theirs * g).sum().backward();
+        let pairs: [(&str, Tensor<2>, Tensor<2>); 5] = [
+            ("dx", x.grad(&grads_ours).unwrap(), x.grad(&grads_theirs).unwrap()),
+            ("dW", layer.weight.val().grad(&grads_ours).unwrap(), layer.weight.val().grad(&grads_theirs).unwrap()),
+            (
+                "db",
+                layer.bias.as_ref().unwrap().val().grad(&grads_ours).unwrap().unsqueeze(),
+                layer.bias.as_ref().unwrap().val().grad(&grads_theirs).unwrap().unsqueeze(),
+            ),
+            (
+                "dgamma",
+                norm.gamma.val().grad(&grads_ours).unwrap().unsqueeze(),
+                norm.gamma.val().grad(&grads_theirs).unwrap().unsqueeze(),
+            ),
+            (
+                "dbeta",
+                norm.beta.as_ref().unwrap().val().grad(&grads_ours).unwrap().unsqueeze(),
+                norm.beta.as_ref().unwrap().val().grad(&grads_theirs).unwrap().unsqueeze(),
+            ),
+        ];
+        for (what, a, b) in pairs {
+            assert_close(what, a, b);
+        }
     }
 }

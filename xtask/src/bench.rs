@@ -1,0 +1,257 @@
+//! `cargo xtask bench model [--config C.toml] [--quick] [--reps N] [--export DIR] [--torch]`:
+//! times the senc-model network on the real t-shirt graph.
+//!
+//! The graph is the one training builds: the config's garment (default the t-shirt) skinned
+//! onto the body at frames `f − 1` and `f` of its first training motion, the proxy body at
+//! `f` and `f + 1`, the config's `[model]` graph settings. Timed: graph building, upload,
+//! inference (`valid()` model, output read back) and forward + surrogate backward at the
+//! config's `[model]` size, at HOOD's size with one block and at HOOD's full size (latent 128,
+//! 15 blocks, 2 hidden layers; one rep with `--quick`). Without `--quick` also graph building
+//! on synthetic 5k and 20k-vertex garments and the main operations of one block.
+//!
+//! `--export DIR` writes the graph for `tools/bench_torch.py --graph DIR/graph`; `--torch`
+//! exports (to a temporary directory unless `--export`) and runs that script right after, so
+//! the ratios burn / PyTorch come from one session. Times are medians after one warm-up.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{bail, Context, Result};
+use clap::Subcommand;
+use senc_geom::Vec3;
+use senc_model::bench::{bench_build, bench_graph, bench_network, bench_ops, export_graph, NetTiming};
+use senc_model::{BodyState, EdgeType, FrameState, ModelConfig};
+use senc_train::eval::first_scene;
+use senc_train::{Garment, RunConfig};
+
+/// What `cargo xtask bench` times.
+#[derive(Subcommand)]
+pub enum Target {
+    /// The network: graph building, inference and forward + backward (burn, optionally PyTorch).
+    Model {
+        /// Config whose scene and `[model]` table to use.
+        #[arg(long, default_value = "configs/tshirt.toml")]
+        config: PathBuf,
+        /// Frame of the first training motion to build the graph at.
+        #[arg(long, default_value_t = 40)]
+        frame: usize,
+        /// Timed runs per measurement (median; one warm-up run first).
+        #[arg(long, default_value_t = 3)]
+        reps: usize,
+        /// Full HOOD size with one rep only; skip the synthetic scaling and operation profile.
+        #[arg(long)]
+        quick: bool,
+        /// Write the graph to DIR/graph.* for tools/bench_torch.py.
+        #[arg(long)]
+        export: Option<PathBuf>,
+        /// Run tools/bench_torch.py (python3, torch) on the same graph and print the ratios.
+        #[arg(long)]
+        torch: bool,
+        /// Sizes to time, any of `config`, `hood1` (HOOD with one block), `hood` (for
+        /// profiling one size; `--torch` needs all three).
+        #[arg(long, value_delimiter = ',', default_value = "config,hood1,hood")]
+        sizes: Vec<String>,
+        /// Skip the forward + backward timing (inference only).
+        #[arg(long)]
+        no_backward: bool,
+    },
+}
+
+/// Runs one benchmark target.
+pub fn run(target: Target) -> Result<()> {
+    match target {
+        Target::Model { config, frame, reps, quick, export, torch, sizes, no_backward } => {
+            if torch && (sizes.len() != 3 || no_backward) {
+                bail!("--torch compares all three sizes with backward; drop --sizes and --no-backward");
+            }
+            model(&Opts { config, frame, reps, quick, export, torch, sizes, backward: !no_backward })
+        }
+    }
+}
+
+fn load() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .unwrap_or_default()
+        .split_whitespace()
+        .take(3)
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The three sizes timed: the config's own, HOOD with one block, full HOOD.
+fn sizes(own: &ModelConfig) -> Vec<(String, ModelConfig)> {
+    vec![
+        (format!("config ({}, {} blocks, {} hidden)", own.latent, own.blocks, own.hidden_layers), own.clone()),
+        ("hood, 1 block (128, 2 hidden)".into(), ModelConfig::hood().with_blocks(1)),
+        ("hood (128, 15 blocks, 2 hidden)".into(), ModelConfig::hood()),
+    ]
+}
+
+/// Options of `bench model`.
+struct Opts {
+    config: PathBuf,
+    frame: usize,
+    reps: usize,
+    quick: bool,
+    export: Option<PathBuf>,
+    torch: bool,
+    sizes: Vec<String>,
+    backward: bool,
+}
+
+fn model(o: &Opts) -> Result<()> {
+    let (config, frame, reps, quick, torch) = (o.config.as_path(), o.frame, o.reps, o.quick, o.torch);
+    for s in &o.sizes {
+        if !["config", "hood1", "hood"].contains(&s.as_str()) {
+            bail!("unknown size {s}; expected config, hood1 or hood");
+        }
+    }
+    let cfg = RunConfig::read(config)?;
+    let g = Garment::load(&first_scene(&cfg)?, cfg.train.body_margin)?;
+    let Some(motion) = g.scene.train.first() else { bail!("{} has no training motion", config.display()) };
+    if motion.n_frames() < 3 {
+        bail!("the first training motion of {} has fewer than 3 frames", config.display());
+    }
+    let f = frame.clamp(1, motion.n_frames() - 2);
+    let prev = g.skinned_at(motion, f - 1)?;
+    let curr = g.skinned_at(motion, f)?;
+    let body_t = g.body_at(motion, f)?;
+    let body_n = g.body_at(motion, f + 1)?;
+    let mc = &g.scene.config.material;
+    let (mu, lambda) = mc.lame()?;
+    let state = FrameState {
+        rest: &g.rest,
+        prev: &prev,
+        curr: &curr,
+        material: senc_model::Material { mu, lambda, bending: mc.bending, density: mc.density },
+        accel: Vec3::from(g.scene.config.external_force.gravity),
+        body: Some(BodyState { faces: g.body_faces(), curr: &body_t, next: &body_n }),
+    };
+    let graph_config = cfg.model.graph_config();
+    println!("threads: rayon {}; load average at start: {}", rayon_threads(), load());
+    let (graph, st, build) = bench_build(&state, &graph_config, reps)?;
+    println!(
+        "\n## graph: {} ({}), frame {f} of motion 0: {} cloth + {} body nodes; edges mesh {} body {} self {}",
+        g.name(),
+        config.display(),
+        graph.n_cloth,
+        graph.n_body,
+        graph.edge_set(EdgeType::Mesh).len(),
+        graph.edge_set(EdgeType::Body).len(),
+        graph.edge_set(EdgeType::SelfCollision).len(),
+    );
+    println!(
+        "build {:.1} ms (median of {reps}; nodes {:.1}, mesh {:.1}, body {:.1}, self {:.1})",
+        build * 1e3,
+        st.nodes * 1e3,
+        st.mesh * 1e3,
+        st.body * 1e3,
+        st.self_collision * 1e3
+    );
+
+    let export_dir = match (o.export.as_deref(), torch) {
+        (Some(d), _) => Some(d.to_path_buf()),
+        (None, true) => Some(std::env::temp_dir().join("senc-bench-graph")),
+        (None, false) => None,
+    };
+    if let Some(dir) = &export_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        export_graph(&graph, &dir.join("graph")).with_context(|| format!("writing the graph to {}", dir.display()))?;
+        println!("exported to {}/graph.json", dir.display());
+    }
+
+    let own = cfg.model.model_config();
+    println!(
+        "\n## network, burn flex (median of {reps}; full HOOD {} rep(s)); load {}",
+        if quick { 1 } else { reps },
+        load()
+    );
+    let mut rows: Vec<NetTiming> = Vec::new();
+    for (k, (label, c)) in sizes(&own).into_iter().enumerate() {
+        if !o.sizes.iter().any(|s| s == ["config", "hood1", "hood"][k]) {
+            continue;
+        }
+        let r = if quick && k == 2 { 1 } else { reps };
+        let t = bench_network(&label, &c, &graph, r, o.backward);
+        println!(
+            "{:34} params {:7} | upload {:6.1} ms | forward {:8.1} ms | forward+backward {:8.1} ms | fps incl. graph {:.1}",
+            t.label,
+            t.params,
+            t.upload * 1e3,
+            t.forward * 1e3,
+            t.forward_backward * 1e3,
+            1.0 / (build + t.upload + t.forward)
+        );
+        rows.push(t);
+    }
+
+    if torch {
+        let dir = export_dir.as_ref().expect("set when torch");
+        torch_compare(dir, &own, reps, quick, &rows)?;
+    }
+
+    if !quick {
+        println!("\n## graph building, synthetic folded garments (1.5 cm spacing, SMPL-sized sphere body)");
+        for n in [71, 142] {
+            let (nc, counts, secs, _) = bench_graph(n, reps);
+            println!(
+                "cloth {nc:6} | edges mesh {:6} body {:6} self {:6} | {:7.1} ms",
+                counts[0],
+                counts[1],
+                counts[2],
+                secs * 1e3
+            );
+        }
+        println!("\n## operations of one block on the mesh edges, latent 128 (median of {reps}); load {}", load());
+        for (name, fwd, fb) in bench_ops(&graph, 128, reps) {
+            println!("{name:40} | forward {:8.2} ms | forward+backward {:8.2} ms", fwd * 1e3, fb * 1e3);
+        }
+    }
+    println!("\nload average at end: {}", load());
+    Ok(())
+}
+
+fn rayon_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, usize::from)
+}
+
+/// Runs `tools/bench_torch.py` on the exported graph and prints burn / PyTorch per size.
+fn torch_compare(dir: &Path, own: &ModelConfig, reps: usize, quick: bool, rows: &[NetTiming]) -> Result<()> {
+    let json = dir.join("torch.json");
+    let mut cmd = Command::new("python3");
+    cmd.arg("tools/bench_torch.py")
+        .arg("--graph")
+        .arg(dir.join("graph"))
+        .args(["--reps", &reps.to_string()])
+        .args(["--small", &format!("{},{},{}", own.latent, own.blocks, own.hidden_layers)])
+        .arg("--json")
+        .arg(&json);
+    if quick {
+        cmd.arg("--quick");
+    }
+    println!("\n## PyTorch on the same graph: {cmd:?}");
+    let status = cmd.status().context("running python3 tools/bench_torch.py (is torch installed?)")?;
+    if !status.success() {
+        bail!("tools/bench_torch.py failed ({status})");
+    }
+    let text = std::fs::read_to_string(&json).with_context(|| format!("reading {}", json.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("parsing {}", json.display()))?;
+    let Some(torch_rows) = v["rows"].as_array() else { bail!("{} has no rows", json.display()) };
+    println!(
+        "\n## burn / PyTorch (same graph, same session; targets at HOOD size: forward <= 0.7, forward+backward <= 1.0)"
+    );
+    for (burn, t) in rows.iter().zip(torch_rows) {
+        let (tf, tb) = (t["forward"].as_f64().unwrap_or(f64::NAN), t["forward_backward"].as_f64().unwrap_or(f64::NAN));
+        println!(
+            "{:34} | forward {:7.1} / {:7.1} ms = {:.2} | forward+backward {:8.1} / {:8.1} ms = {:.2}",
+            burn.label,
+            burn.forward * 1e3,
+            tf * 1e3,
+            burn.forward / tf,
+            burn.forward_backward * 1e3,
+            tb * 1e3,
+            burn.forward_backward / tb
+        );
+    }
+    Ok(())
+}
