@@ -380,25 +380,28 @@ impl SelfIntersector {
         let n = self.order.len();
         self.boxes.resize(n, Aabb3::EMPTY);
         self.planes.resize(n, FacePlane::ZERO);
+        self.lanes.resize(n.div_ceil(LEAF_SIZE), LeafBoxes::EMPTY);
         let pos = mesh.positions();
         let slot_faces = &self.slot_faces;
-        self.boxes.par_iter_mut().zip(self.planes.par_iter_mut()).enumerate().with_min_len(1024).for_each(
-            |(slot, (bx, pl))| {
-                let [a, b, c] = slot_faces[slot].map(|v| pos[v as usize]);
-                *bx = Aabb3::of_triangle(a, b, c);
-                *pl = FacePlane::of_triangle(a, b, c);
-            },
-        );
-        self.lanes.clear();
-        self.lanes.resize(n.div_ceil(LEAF_SIZE), LeafBoxes::EMPTY);
-        for (slot, b) in self.boxes.iter().enumerate() {
-            let l = &mut self.lanes[slot / LEAF_SIZE];
-            let k = slot % LEAF_SIZE;
-            for ax in 0..3 {
-                l.lo[ax][k] = f32_down(b.lo[ax]);
-                l.hi[ax][k] = f32_up(b.hi[ax]);
-            }
-        }
+        // One parallel pass over leaf groups: f64 boxes and planes per slot, then the
+        // group's f32 lanes (unused lanes keep their empty boxes).
+        self.lanes
+            .par_iter_mut()
+            .zip(self.boxes.par_chunks_mut(LEAF_SIZE))
+            .zip(self.planes.par_chunks_mut(LEAF_SIZE))
+            .enumerate()
+            .with_min_len(256)
+            .for_each(|(group, ((lanes, boxes), planes))| {
+                for (k, (bx, pl)) in boxes.iter_mut().zip(planes.iter_mut()).enumerate() {
+                    let [a, b, c] = slot_faces[group * LEAF_SIZE + k].map(|v| pos[v as usize]);
+                    *bx = Aabb3::of_triangle(a, b, c);
+                    *pl = FacePlane::of_triangle(a, b, c);
+                    for ax in 0..3 {
+                        lanes.lo[ax][k] = f32_down(bx.lo[ax]);
+                        lanes.hi[ax][k] = f32_up(bx.hi[ax]);
+                    }
+                }
+            });
         for i in (0..self.nodes.len()).rev() {
             let nd = self.nodes[i];
             self.nodes[i].bbox = if nd.leaf {
