@@ -102,6 +102,11 @@ fn main() {
     measure("all_with_repulsion", n / 10 + 1, || {
         f.evaluate(&x, Some(&mut g)).unwrap();
     });
+    let mb = EnergyModel::new(&rest, &rc, Some(&body)).unwrap();
+    let fb = mb.frame(&x_t, &x_t, Some((body.positions(), &body_next))).unwrap();
+    measure("all_with_repulsion_and_body", n / 10 + 1, || {
+        fb.evaluate(&x, Some(&mut g)).unwrap();
+    });
     let rep = senc_energy::terms::repulsion::Repulsion::new(rest.topology_arc(), 1e-4, 0.02);
     println!("repulsion: {} non-adjacent pairs", rep.pairs(&x).len());
     measure("repulsion_eval_with_gradient", n / 10 + 1, || {
