@@ -18,8 +18,10 @@ pub struct Args {
     pub prev: Option<PathBuf>,
     /// x[t−1].
     pub prev2: Option<PathBuf>,
-    /// Body (static: the same at t and t+1).
+    /// Body at t (and at t+1 unless `body_next` is given).
     pub body: Option<PathBuf>,
+    /// Body at t+1 (same vertices and faces as `body`), for a moving body.
+    pub body_next: Option<PathBuf>,
     /// Energy config (TOML, or JSON by extension).
     pub config: Option<PathBuf>,
     /// Print one JSON object.
@@ -79,8 +81,30 @@ pub fn run(args: &Args) -> Result<()> {
         Some(p) => Some(read_obj(p).with_context(|| format!("reading body {}", p.display()))?),
         None => None,
     };
+    let body_next = match (&args.body_next, &body) {
+        (None, _) => None,
+        (Some(_), None) => bail!("--body-next needs --body (the body at t)"),
+        (Some(p), Some(b)) => {
+            let data = ObjData::read(p).with_context(|| format!("reading --body-next {}", p.display()))?;
+            if data.positions.len() != b.n_vertices() || data.faces != b.faces() {
+                bail!(
+                    "--body-next {} has {} vertices and {} faces but the body has {} and {}; it must be the same body mesh moved",
+                    p.display(),
+                    data.positions.len(),
+                    data.faces.len(),
+                    b.n_vertices(),
+                    b.n_faces()
+                );
+            }
+            Some(data.positions)
+        }
+    };
     let model = EnergyModel::new(&rest, &config, body.as_ref())?;
-    let frame = model.frame(&cur, &prev, body.as_ref().map(|b| (b.positions(), b.positions())))?;
+    let frame = model.frame(
+        &cur,
+        &prev,
+        body.as_ref().map(|b| (b.positions(), body_next.as_deref().unwrap_or(b.positions()))),
+    )?;
     let breakdown = frame.evaluate(&next, None)?;
     if args.json {
         let mut obj = serde_json::Map::new();

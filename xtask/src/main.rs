@@ -5,7 +5,8 @@
 //! - `check-mesh MESH.obj [--close-holes] [--json]`: validate a mesh and print its topology
 //!   (vertices, faces, boundary loops, components, closure).
 //! - `energy --garment REST.obj --state NEXT.obj [--prev CUR.obj --prev2 PREV.obj] [--body BODY.obj]
-//!   [--config FILE] [--json]`: the energy of a predicted frame, term by term, in joules.
+//!   [--body-next BODY1.obj] [--config FILE] [--json]`: the energy of a predicted frame, term by
+//!   term, in joules (a moving body with --body-next).
 //!
 //! - `data [--out data] [--work DIR]`: rebuild `data/` from the registry packages.
 //! - `fit --garment X.obj [--scale S] [--no-align]`: fit a garment onto the senc body.
@@ -76,9 +77,12 @@ enum Command {
         /// x[t-1] (default: x[t], i.e. at rest).
         #[arg(long)]
         prev2: Option<PathBuf>,
-        /// Body mesh (static: the same at t and t+1).
+        /// Body mesh at t (and at t+1 unless --body-next is given).
         #[arg(long)]
         body: Option<PathBuf>,
+        /// Body at t+1 for a moving body (OBJ with the body's vertices and faces).
+        #[arg(long)]
+        body_next: Option<PathBuf>,
         /// Energy config, TOML (or JSON with a .json extension); defaults per issue 4.
         #[arg(long)]
         config: Option<PathBuf>,
@@ -223,8 +227,8 @@ fn main() -> std::process::ExitCode {
             })
         }
         Some(Command::CheckMesh { mesh, close_holes, json }) => check_mesh::run(&mesh, close_holes, json),
-        Some(Command::Energy { garment, state, prev, prev2, body, config, json }) => {
-            energy::run(&energy::Args { garment, state, prev, prev2, body, config, json })
+        Some(Command::Energy { garment, state, prev, prev2, body, body_next, config, json }) => {
+            energy::run(&energy::Args { garment, state, prev, prev2, body, body_next, config, json })
         }
         Some(Command::Data { out, work }) => data::run(&out, &work),
         Some(Command::Fit { garment, body, out, scale, no_align, margin }) => {
