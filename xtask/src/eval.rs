@@ -1,18 +1,89 @@
-//! `cargo xtask eval --checkpoint DIR [--compare DIR ...] [--config C.toml] [--out reports]`:
-//! Table 1 (penetration volume, L_self-col, % frames above thresholds, body penetration,
-//! FPS) and the error against run time (reference solver budgets against each network).
+//! `cargo xtask eval --checkpoint DIR [--compare DIR ...] [--config C.toml ...] [--garment G]
+//! [--out reports]`: Table 1 (penetration volume, L_self-col, % frames above thresholds,
+//! body penetration, FPS) and the error against run time (reference solver budgets against
+//! each network).
+//!
+//! With several `--config` files, each checkpoint is evaluated with the one whose garment is
+//! the garment it was trained on, so one table holds t-shirt and skirt rows. `--garment`
+//! swaps in a garment the models never saw (an OBJ is fitted to the body first).
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
-use senc_train::eval::{evaluate, write_reports, Method};
+use anyhow::{bail, Context, Result};
+use senc_train::eval::{evaluate, first_scene, write_reports, Method};
+use senc_train::RunConfig;
+
+/// The garment asset a config's first scene uses (canonical path, for matching).
+fn scene_garment(config: &Path) -> Result<PathBuf> {
+    let cfg = RunConfig::read(config)?;
+    let scene = senc_scene::SceneConfig::read(first_scene(&cfg)?)?;
+    Ok(scene.garment.canonicalize().unwrap_or(scene.garment))
+}
+
+/// The config to evaluate `checkpoint` with: the only one given, or the one whose garment
+/// matches the checkpoint's training garment.
+fn pick_config(checkpoint: &Path, configs: &[PathBuf]) -> Result<Option<PathBuf>> {
+    match configs {
+        [] => Ok(None),
+        [one] => Ok(Some(one.clone())),
+        many => {
+            let own = Method::new(checkpoint, None)?;
+            let g = scene_garment(&own.config)?;
+            for c in many {
+                if scene_garment(c)? == g {
+                    return Ok(Some(c.clone()));
+                }
+            }
+            bail!(
+                "{} was trained on {}, and none of the --config files uses that garment",
+                checkpoint.display(),
+                g.display()
+            )
+        }
+    }
+}
+
+/// A garment asset for `--garment`: a `.msgpack` asset as is, an OBJ fitted to the body of
+/// `config`'s scene first (written to the system's temporary directory).
+pub fn prepare_garment(garment: &Path, config: &Path) -> Result<PathBuf> {
+    match garment.extension().and_then(|e| e.to_str()) {
+        Some("msgpack") => Ok(garment.to_path_buf()),
+        Some("obj") => {
+            let cfg = RunConfig::read(config)?;
+            let scene = senc_scene::SceneConfig::read(first_scene(&cfg)?)?;
+            let body = senc_scene::BodyAsset::load(&scene.body)?;
+            let data = senc_geom::obj::ObjData::read(garment)?;
+            let name = garment.file_stem().and_then(|s| s.to_str()).unwrap_or("garment").to_string();
+            let (asset, rep) = crate::fit::fit(&name, data.positions, data.faces, &body, None, true, 5e-3)
+                .with_context(|| format!("fitting {} to the body", garment.display()))?;
+            let out = std::env::temp_dir().join(format!("senc-fitted-{name}.msgpack"));
+            senc_scene::assets::write_msgpack(&out, &asset)?;
+            eprintln!("fitted {}", crate::fit::describe(&asset, &rep));
+            Ok(out)
+        }
+        _ => {
+            bail!("--garment {}: give an OBJ (fitted to the body first) or a fitted .msgpack asset", garment.display())
+        }
+    }
+}
 
 /// Evaluates every checkpoint and writes the reports.
-pub fn run(checkpoint: &Path, compare: &[PathBuf], config: Option<&Path>, out: &Path) -> Result<()> {
+pub fn run(
+    checkpoint: &Path,
+    compare: &[PathBuf],
+    configs: &[PathBuf],
+    garment: Option<&Path>,
+    out: &Path,
+) -> Result<()> {
     let mut rows = Vec::new();
     let mut curve = Vec::new();
     for ck in std::iter::once(checkpoint).chain(compare.iter().map(|p| p.as_path())) {
-        let m = Method::new(ck, config)?;
+        let config = pick_config(ck, configs)?;
+        let mut m = Method::new(ck, config.as_deref())?;
+        if let Some(g) = garment {
+            let asset = prepare_garment(g, &m.config)?;
+            m = m.with_garment(&asset);
+        }
         eprintln!("evaluating {} on {}", m.label, m.config.display());
         let (row, c) = evaluate(&m).with_context(|| format!("evaluating {}", ck.display()))?;
         println!(

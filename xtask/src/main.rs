@@ -12,11 +12,12 @@
 //! - `fit --garment X.obj [--scale S] [--no-align]`: fit a garment onto the senc body.
 //! - `preview --config C.toml --frame N --out F.png [--motion NAME]`: draw body and garment.
 //! - `train --config C.toml [--out DIR] [--resume]`: both training phases (senc-train).
-//! - `eval --checkpoint DIR [--compare DIR ...] [--out reports]`: Table 1 and error against run time.
-//! - `simulate --checkpoint DIR --motion NAME [--wind X,Y,Z] --out DIR`: OBJ sequence.
+//! - `eval --checkpoint DIR [--compare DIR ...] [--config C ...] [--garment G] [--out reports]`:
+//!   Table 1 and error against run time (`--garment`: a garment the model never saw).
+//! - `simulate --checkpoint DIR --motion NAME [--wind X,Y,Z] [--garment G] --out DIR`: OBJ
+//!   sequence, one animated `sequence.glb` and preview PNGs.
 //!
-//! Later issues add `volume`, `energy`, `data`, `fit`, `preview`, `train`, `eval`,
-//! `simulate` and `bench`. `cargo xtask` with no arguments lists what exists.
+//! `cargo xtask` with no arguments lists every command.
 
 use std::path::PathBuf;
 
@@ -29,6 +30,7 @@ mod data;
 mod energy;
 mod eval;
 mod fit;
+mod glb;
 mod preview;
 mod simulate;
 mod train;
@@ -155,13 +157,19 @@ enum Command {
         #[arg(long, num_args = 1..)]
         compare: Vec<PathBuf>,
         /// Config whose scene, energy and [eval] settings to use (default: each checkpoint's own).
+        /// Several: each checkpoint uses the one with its training garment (t-shirt and skirt
+        /// rows in one table).
+        #[arg(long, num_args = 1..)]
+        config: Vec<PathBuf>,
+        /// A garment the models never saw: an OBJ in metres (fitted to the body first, as
+        /// `cargo xtask fit` does) or a fitted .msgpack asset. Every loop but `neck` is closed.
         #[arg(long)]
-        config: Option<PathBuf>,
+        garment: Option<PathBuf>,
         /// Output directory for table1.md/.csv/.json and runtime.md/.csv/.svg.
         #[arg(long, default_value = "reports")]
         out: PathBuf,
     },
-    /// Roll a trained model out on a motion and write an OBJ sequence.
+    /// Roll a trained model out on a motion: OBJ sequence, animated glTF (GLB) and preview PNGs.
     Simulate {
         /// Checkpoint directory.
         #[arg(long)]
@@ -178,7 +186,14 @@ enum Command {
         /// Frames to simulate.
         #[arg(long, default_value_t = 90)]
         frames: usize,
-        /// Output directory.
+        /// A garment the model never saw: an OBJ in metres (fitted to the body first) or a
+        /// fitted .msgpack asset.
+        #[arg(long)]
+        garment: Option<PathBuf>,
+        /// Preview PNGs (front, side, back) spread evenly over the sequence.
+        #[arg(long, default_value_t = 4)]
+        previews: usize,
+        /// Output directory (OBJ sequence, sequence.glb, preview PNGs).
         #[arg(long)]
         out: PathBuf,
     },
@@ -238,11 +253,20 @@ fn main() -> std::process::ExitCode {
             let out = out.unwrap_or_else(|| PathBuf::from("runs").join(config.file_stem().unwrap_or_default()));
             train::run(&config, &out, resume, stop_after)
         }
-        Some(Command::Eval { checkpoint, compare, config, out }) => {
-            eval::run(&checkpoint, &compare, config.as_deref(), &out)
+        Some(Command::Eval { checkpoint, compare, config, garment, out }) => {
+            eval::run(&checkpoint, &compare, &config, garment.as_deref(), &out)
         }
-        Some(Command::Simulate { checkpoint, motion, config, wind, frames, out }) => {
-            simulate::run(&checkpoint, config.as_deref(), &motion, wind.as_deref(), frames, &out)
+        Some(Command::Simulate { checkpoint, motion, config, wind, frames, garment, previews, out }) => {
+            simulate::run(&simulate::Args {
+                checkpoint: &checkpoint,
+                config: config.as_deref(),
+                motion: &motion,
+                wind: wind.as_deref(),
+                frames,
+                garment: garment.as_deref(),
+                previews,
+                out: &out,
+            })
         }
         Some(Command::Bench { target }) => bench::run(target),
         Some(Command::Preview { config, frame, motion, out, size }) => {

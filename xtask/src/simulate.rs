@@ -1,5 +1,7 @@
-//! `cargo xtask simulate --checkpoint DIR --motion NAME [--wind X,Y,Z] [--frames N] --out DIR`:
-//! rolls a trained model out on a motion and writes one OBJ per frame (garment and body).
+//! `cargo xtask simulate --checkpoint DIR --motion NAME [--wind X,Y,Z] [--frames N]
+//! [--garment G] [--previews K] --out DIR`: rolls a trained model out on a motion and writes
+//! one OBJ per frame (garment and proxy body), one animated `sequence.glb` (garment and full
+//! body), and K preview PNGs (front, side and back views) spread over the sequence.
 
 use std::path::Path;
 
@@ -8,55 +10,123 @@ use senc_geom::obj::write_obj;
 use senc_geom::Vec3;
 use senc_model::burn::tensor::Device;
 use senc_model::Model;
+use senc_scene::raster::{render, Layer, BODY, GARMENT_INSIDE, GARMENT_OUTSIDE};
 use senc_train::eval::Method;
 use senc_train::rollout::rollout;
 use senc_train::trainer::scene_material;
-use senc_train::{Garment, RunConfig};
+use senc_train::RunConfig;
 
-/// Simulates and writes `OUT/cloth_NNNN.obj` and `OUT/body_NNNN.obj`.
-pub fn run(
-    checkpoint: &Path,
-    config: Option<&Path>,
-    motion: &str,
-    wind: Option<&str>,
-    frames: usize,
-    out: &Path,
-) -> Result<()> {
-    let m = Method::new(checkpoint, config)?;
+use crate::glb::{write_animated_glb, AnimatedMesh};
+
+/// What `cargo xtask simulate` was asked for.
+pub struct Args<'a> {
+    /// Checkpoint directory.
+    pub checkpoint: &'a Path,
+    /// Config (default: the checkpoint's own).
+    pub config: Option<&'a Path>,
+    /// Motion name.
+    pub motion: &'a str,
+    /// `X,Y,Z` external acceleration, m/s².
+    pub wind: Option<&'a str>,
+    /// Frames to simulate.
+    pub frames: usize,
+    /// A garment the model never saw (OBJ or fitted asset).
+    pub garment: Option<&'a Path>,
+    /// Preview PNGs to draw.
+    pub previews: usize,
+    /// Output directory.
+    pub out: &'a Path,
+}
+
+/// Parses `--wind X,Y,Z`.
+fn parse_wind(w: &str) -> Result<Vec3> {
+    let v: Vec<f64> = w
+        .split(',')
+        .map(|s| s.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--wind {w}: expected three numbers X,Y,Z in m/s²"))?;
+    if v.len() != 3 || !v.iter().all(|x| x.is_finite()) {
+        bail!("--wind {w}: expected three finite numbers X,Y,Z in m/s²");
+    }
+    Ok(Vec3::new(v[0], v[1], v[2]))
+}
+
+/// Simulates and writes the sequence.
+pub fn run(a: &Args<'_>) -> Result<()> {
+    let mut m = Method::new(a.checkpoint, a.config)?;
+    if let Some(g) = a.garment {
+        let asset = crate::eval::prepare_garment(g, &m.config)?;
+        m = m.with_garment(&asset);
+    }
     let cfg = RunConfig::read(&m.config)?;
-    let g = Garment::load(&senc_train::eval::first_scene(&cfg)?, cfg.train.body_margin)?;
-    let (motion, _) = g.scene.motion(motion).ok_or_else(|| {
+    let g = m.load_garment(&cfg)?;
+    let (motion, _) = g.scene.motion(a.motion).ok_or_else(|| {
         let names: Vec<&str> = g.scene.train.iter().chain(&g.scene.test).map(|m| m.name.as_str()).collect();
-        anyhow!("no motion named {motion}; this scene has {}", names.join(", "))
+        anyhow!("no motion named {}; this scene has {}", a.motion, names.join(", "))
     })?;
-    let wind = match wind {
-        None => Vec3::zeros(),
-        Some(w) => {
-            let v: Vec<f64> = w
-                .split(',')
-                .map(|s| s.trim().parse::<f64>())
-                .collect::<Result<_, _>>()
-                .with_context(|| format!("--wind {w}: expected three numbers X,Y,Z in m/s²"))?;
-            if v.len() != 3 {
-                bail!("--wind {w}: expected three numbers X,Y,Z in m/s²");
-            }
-            Vec3::new(v[0], v[1], v[2])
-        }
-    };
+    let wind = a.wind.map(parse_wind).transpose()?.unwrap_or_else(Vec3::zeros);
     let model = Model::load(&m.checkpoint, &Device::flex())?;
     let material = scene_material(&g)?;
     let ext = Vec3::from(g.scene.config.external_force.acceleration) + wind;
-    let r = rollout(&model, &g, motion, frames, ext, &material)?;
-    std::fs::create_dir_all(out)?;
+    let r = rollout(&model, &g, motion, a.frames, ext, &material)?;
+    std::fs::create_dir_all(a.out).with_context(|| format!("creating {}", a.out.display()))?;
     for (f, (x, b)) in r.cloth.iter().zip(&r.body).enumerate() {
-        write_obj(out.join(format!("cloth_{f:04}.obj")), x, g.rest.faces())?;
-        write_obj(out.join(format!("body_{f:04}.obj")), b, g.body_faces())?;
+        write_obj(a.out.join(format!("cloth_{f:04}.obj")), x, g.rest.faces())?;
+        write_obj(a.out.join(format!("body_{f:04}.obj")), b, g.body_faces())?;
+    }
+    // The full body for the animation and the pictures (the rollout used the proxy).
+    let bodies: Vec<Vec<Vec3>> = (0..r.cloth.len()).map(|f| g.scene.body_at(motion, f)).collect::<Result<_, _>>()?;
+    let glb = a.out.join("sequence.glb");
+    write_animated_glb(
+        &glb,
+        &[
+            AnimatedMesh { name: "garment", faces: g.rest.faces(), frames: &r.cloth, color: [0.85, 0.2, 0.2] },
+            AnimatedMesh { name: "body", faces: &g.scene.body.faces, frames: &bodies, color: [0.6, 0.6, 0.62] },
+        ],
+        g.scene.config.fps,
+    )?;
+    let n = r.cloth.len();
+    let k = a.previews.min(n);
+    let mut pngs = Vec::new();
+    for i in 0..k {
+        let f = if k <= 1 { n - 1 } else { i * (n - 1) / (k - 1) };
+        let img = render(
+            &[
+                Layer { positions: &bodies[f], faces: &g.scene.body.faces, outside: BODY, inside: BODY },
+                Layer {
+                    positions: &r.cloth[f],
+                    faces: g.rest.faces(),
+                    outside: GARMENT_OUTSIDE,
+                    inside: GARMENT_INSIDE,
+                },
+            ],
+            &[0.0, 90.0, 180.0],
+            320,
+        );
+        let p = a.out.join(format!("preview_{f:04}.png"));
+        img.write_png(&p)?;
+        pngs.push(p);
     }
     println!(
-        "wrote {} frames to {} (cloth_NNNN.obj, body_NNNN.obj: proxy body); {:.1} FPS",
-        r.cloth.len(),
-        out.display(),
+        "wrote {n} frames to {} (cloth_NNNN.obj, body_NNNN.obj: proxy body), {} (garment and full body, {} fps) and {} preview PNGs; {:.1} FPS",
+        a.out.display(),
+        glb.display(),
+        g.scene.config.fps,
+        pngs.len(),
         r.steps as f64 / r.infer_seconds.max(1e-12)
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wind_parses_three_finite_numbers_only() {
+        assert_eq!(parse_wind("1, -2,3.5").unwrap(), Vec3::new(1.0, -2.0, 3.5));
+        assert!(parse_wind("1,2").is_err());
+        assert!(parse_wind("1,2,x").is_err());
+        assert!(parse_wind("1,2,NaN").is_err());
+    }
 }

@@ -62,6 +62,14 @@ pub struct TrainConfig {
     /// Extra scene configs whose `[scene]` garments are sampled per sequence besides this
     /// file's own (one model for many garments, `all.toml`). Relative to this file.
     pub scenes: Vec<PathBuf>,
+    /// HOOD's collision-weight ramp: the body-collision weight starts at this value (J/m³)
+    /// and grows linearly to `[energy.collision] weight` over `collision_ramp_iterations`
+    /// training iterations (phase 1 then phase 2, counted together). HOOD: 5e3 → 5e5.
+    /// Unset (the default): the full weight from the start.
+    pub collision_weight_start: Option<f64>,
+    /// Length of the collision-weight ramp, iterations (HOOD ramps over 100k; ours are
+    /// shorter). Ignored without `collision_weight_start`.
+    pub collision_ramp_iterations: u64,
 }
 
 impl Default for TrainConfig {
@@ -83,6 +91,8 @@ impl Default for TrainConfig {
             external_max: 10.0,
             body_margin: 0.12,
             scenes: Vec::new(),
+            collision_weight_start: None,
+            collision_ramp_iterations: 1000,
         }
     }
 }
@@ -91,6 +101,18 @@ impl TrainConfig {
     /// Learning rate of global step `k` (HOOD's step decay with a floor).
     pub fn lr(&self, k: u64) -> f64 {
         self.learning_rate * (0.5f64.powi((k / self.lr_halving.max(1)) as i32) + 0.01)
+    }
+
+    /// Body-collision weight at training iteration `k` (phase 1 and 2 counted together),
+    /// given the full weight `end` (HOOD's linear ramp; `end` when no ramp is configured).
+    pub fn collision_weight(&self, k: u64, end: f64) -> f64 {
+        match self.collision_weight_start {
+            None => end,
+            Some(start) => {
+                let s = (k as f64 / self.collision_ramp_iterations.max(1) as f64).min(1.0);
+                start + (end - start) * s
+            }
+        }
     }
 
     /// Rollout length at phase iteration `k`.
@@ -294,6 +316,11 @@ impl RunConfig {
         if t.checkpoint_every == 0 {
             return bad("[train] checkpoint_every must be >= 1".into());
         }
+        if let Some(w) = self.train.collision_weight_start {
+            if !(w.is_finite() && w >= 0.0) {
+                return bad(format!("[train] collision_weight_start = {w}: give a finite weight >= 0 (HOOD: 5e3)"));
+            }
+        }
         if self.model.latent == 0 || self.model.blocks == 0 {
             return bad("[model] latent and blocks must be >= 1".into());
         }
@@ -340,5 +367,19 @@ mod tests {
         assert_eq!(t.rollout_len(0), 1);
         assert_eq!(t.rollout_len(5), 2);
         assert_eq!(t.rollout_len(100), 3);
+    }
+
+    #[test]
+    fn collision_weight_ramps_linearly_then_holds() {
+        let t = TrainConfig { collision_weight_start: Some(5e3), collision_ramp_iterations: 100, ..Default::default() };
+        assert_eq!(t.collision_weight(0, 5e5), 5e3);
+        assert!((t.collision_weight(50, 5e5) - 2.525e5).abs() < 1e-6);
+        assert_eq!(t.collision_weight(100, 5e5), 5e5);
+        assert_eq!(t.collision_weight(10_000, 5e5), 5e5);
+        let none = TrainConfig::default();
+        assert_eq!(none.collision_weight(0, 5e5), 5e5);
+        let bad = "[train]\ncollision_weight_start = -1.0\n";
+        let e = RunConfig::parse(bad, Path::new("a.toml")).and_then(|c| c.validate()).unwrap_err();
+        assert!(e.to_string().contains("collision_weight_start"), "{e}");
     }
 }

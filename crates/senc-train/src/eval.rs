@@ -35,6 +35,9 @@ pub struct Method {
     pub checkpoint: PathBuf,
     /// Config file (scene, energy, eval settings).
     pub config: PathBuf,
+    /// A garment asset that replaces the scene's garment (an unseen garment, fitted to the
+    /// body first); `None` runs the scene's own garment.
+    pub garment: Option<PathBuf>,
 }
 
 impl Method {
@@ -62,7 +65,23 @@ impl Method {
             Some(r) => format!("{r}/{phase}"),
             None => phase,
         };
-        Ok(Self { label, checkpoint: checkpoint.to_path_buf(), config })
+        Ok(Self { label, checkpoint: checkpoint.to_path_buf(), config, garment: None })
+    }
+
+    /// The same method run on another garment asset (see [`Garment::load_unseen`]).
+    pub fn with_garment(mut self, asset: &Path) -> Self {
+        self.garment = Some(asset.to_path_buf());
+        self
+    }
+
+    /// The garment this method runs on: the config's first scene, or that scene with
+    /// [`Method::garment`] in place of its garment.
+    pub fn load_garment(&self, cfg: &RunConfig) -> Result<Garment, TrainError> {
+        let scene = first_scene(cfg)?;
+        match &self.garment {
+            None => Garment::load(&scene, cfg.train.body_margin),
+            Some(asset) => Garment::load_unseen(&scene, asset, cfg.train.body_margin),
+        }
     }
 }
 
@@ -137,7 +156,7 @@ pub fn first_scene(cfg: &RunConfig) -> Result<PathBuf, TrainError> {
 /// Evaluates one method: Table-1 row per garment and the network's curve points.
 pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
     let cfg = RunConfig::read(&method.config)?;
-    let g = Garment::load(&first_scene(&cfg)?, cfg.train.body_margin)?;
+    let g = method.load_garment(&cfg)?;
     let model = Model::load(&method.checkpoint, &Device::flex())?;
     let material = scene_material(&g)?;
     let ext = Vec3::from(g.scene.config.external_force.acceleration);

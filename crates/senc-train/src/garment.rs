@@ -33,6 +33,21 @@ impl Garment {
         Self::new(Arc::new(scene), margin)
     }
 
+    /// Loads the scene file `path` with its garment replaced by `asset`, a garment asset
+    /// fitted to the same body (`cargo xtask fit`), so that a model can be run on a garment
+    /// it never saw (the paper's Table 3). Every boundary loop of the asset is closed for
+    /// the self-collision volume except the one named `neck` (the scene's own `close_holes`
+    /// name the scene's garment, not this one). The motions, material and forces are the
+    /// scene's.
+    pub fn load_unseen(path: &std::path::Path, asset: &std::path::Path, margin: f64) -> Result<Self, TrainError> {
+        let mut config = senc_scene::SceneConfig::read(path)?;
+        let fitted = senc_scene::GarmentAsset::load(asset)?;
+        config.garment = asset.to_path_buf();
+        config.close_holes = fitted.loop_names().into_iter().filter(|n| n != "neck").collect();
+        let scene = Scene::from_config(config)?;
+        Self::new(Arc::new(scene), margin)
+    }
+
     /// Prepares a loaded scene.
     pub fn new(scene: Arc<Scene>, margin: f64) -> Result<Self, TrainError> {
         let rest = scene.garment_mesh.clone();

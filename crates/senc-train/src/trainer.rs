@@ -432,6 +432,9 @@ impl Trainer {
         let key = self.sequence_id.wrapping_mul(2) + u64::from(seq.first_step);
         if self.energy_cache.as_ref().is_none_or(|(k, _)| *k != key) {
             let mut ec = self.config.energy_for(phase, seq.material, seq.external);
+            // HOOD's collision ramp, per sequence (counted over both phases).
+            let global = if phase == 1 { k } else { self.config.train.phase1_iterations + k };
+            ec.collision.weight = self.config.train.collision_weight(global, ec.collision.weight);
             ec.dt = dt;
             ec.gravity = g.scene.config.external_force.gravity;
             ec.self_collision.open_holes = g.open_holes.clone();
