@@ -2,25 +2,15 @@
 //! jittered 72×72-quad sheet, 10,368 faces) draped over a sphere, plus the total.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use rand::{Rng, SeedableRng};
 
-use senc_energy::generate::{sheet, sphere};
+use senc_energy::generate::{bench_scene, BenchScene};
 use senc_energy::{EnergyConfig, EnergyModel};
 use senc_geom::Vec3;
 
 fn energies(c: &mut Criterion) {
-    let rest = sheet(72, 1.0, 0.301, 0.3, 1);
+    let BenchScene { rest, body, body_next, x } = bench_scene();
     assert!(rest.n_faces() >= 10_000);
-    let body = sphere(Vec3::zeros(), 0.3, 32, 48);
-    let mut rng = rand::rngs::StdRng::seed_from_u64(2);
     let x_t = rest.positions().to_vec();
-    let x: Vec<Vec3> = x_t
-        .iter()
-        .map(|p| {
-            p + Vec3::new(rng.random_range(-1e-3..1e-3), rng.random_range(-1e-3..1e-3), rng.random_range(-1e-3..1e-3))
-        })
-        .collect();
-    let body_next: Vec<Vec3> = body.positions().iter().map(|p| p + Vec3::new(1e-3, 0.0, 0.0)).collect();
     let mut config = EnergyConfig::default();
     // GIA is benchmarked in senc-gia; the repulsive baseline is on so that it is measured.
     config.self_collision.weight = 0.0;

@@ -4,9 +4,7 @@
 
 use std::time::Instant;
 
-use rand::{Rng, SeedableRng};
-
-use senc_energy::generate::{sheet, sphere};
+use senc_energy::generate::{bench_scene, BenchScene};
 use senc_energy::{EnergyConfig, EnergyModel};
 use senc_geom::Vec3;
 
@@ -31,17 +29,8 @@ fn measure(name: &str, n: usize, mut f: impl FnMut()) {
 }
 
 fn main() {
-    let rest = sheet(72, 1.0, 0.301, 0.3, 1);
-    let body = sphere(Vec3::zeros(), 0.3, 32, 48);
-    let mut rng = rand::rngs::StdRng::seed_from_u64(2);
+    let BenchScene { rest, body, body_next, x } = bench_scene();
     let x_t = rest.positions().to_vec();
-    let x: Vec<Vec3> = x_t
-        .iter()
-        .map(|p| {
-            p + Vec3::new(rng.random_range(-1e-3..1e-3), rng.random_range(-1e-3..1e-3), rng.random_range(-1e-3..1e-3))
-        })
-        .collect();
-    let body_next: Vec<Vec3> = body.positions().iter().map(|p| p + Vec3::new(1e-3, 0.0, 0.0)).collect();
     let mut config = EnergyConfig::default();
     config.self_collision.weight = 0.0;
     config.external_acceleration = [1.0, 0.0, 0.0];
