@@ -8,7 +8,10 @@
 //! list: faces sharing an edge, or one vertex whose ring is embedded (see
 //! [`embedded_rings`]), are dropped by comparing vertex ids; the rest take the sides of each
 //! face's vertices against the other face's float plane (exact predicate only when the float
-//! value is within its rounding bound) and reuse them for the edge tests.
+//! value is within its rounding bound) and reuse them for the edge tests. Before that, a
+//! node whose faces form a topological disk with all normals in a cone narrower than a
+//! hemisphere and whose boundary projects to a simple curve is skipped whole: such a patch
+//! cannot cross itself (see [`Traversal::patch_is_embedded`]).
 //!
 //! # Behavior
 //! - Triangles sharing an edge are skipped (in the perturbed general position they meet only
@@ -27,6 +30,7 @@ use rayon::prelude::*;
 
 use crate::mesh::TriMesh;
 use crate::predicates::{orient3d_sos, orient3d_value};
+use crate::topology::NO_FACE;
 use crate::Vec3;
 
 /// A crossing of mesh edge `edge` through the interior of face `face`.
@@ -206,6 +210,223 @@ fn f32_step(y: f32, up: bool) -> f32 {
     }
 }
 
+/// Box of the unit normals of a set of faces, for the normal-cone test of disk patches
+/// (see [`Traversal::patch_is_embedded`]). A face whose float normal direction cannot be
+/// trusted (the sine of its angle at its first vertex at most 1e-6, so the direction's
+/// rounding error could exceed about 1e-9) widens the box to the whole cube `[−1, 1]³`,
+/// which never passes the test.
+#[derive(Debug, Clone, Copy)]
+struct NormalBox {
+    lo: [f64; 3],
+    hi: [f64; 3],
+}
+
+impl NormalBox {
+    const EMPTY: NormalBox = NormalBox { lo: [f64::INFINITY; 3], hi: [f64::NEG_INFINITY; 3] };
+
+    /// Adds the face with scaled normal `n = e1 × e2` (edges `e1`, `e2` from its first vertex).
+    #[inline]
+    fn add_face(&mut self, n: Vec3, e1: Vec3, e2: Vec3) {
+        let nn = n.norm_squared();
+        let unit = if nn.is_finite() && nn > 1e-12 * e1.norm_squared() * e2.norm_squared() {
+            n / nn.sqrt()
+        } else {
+            self.lo = [-1.0; 3];
+            self.hi = [1.0; 3];
+            return;
+        };
+        for ax in 0..3 {
+            self.lo[ax] = self.lo[ax].min(unit[ax]);
+            self.hi[ax] = self.hi[ax].max(unit[ax]);
+        }
+    }
+
+    #[inline]
+    fn union(&self, o: &NormalBox) -> NormalBox {
+        NormalBox {
+            lo: [self.lo[0].min(o.lo[0]), self.lo[1].min(o.lo[1]), self.lo[2].min(o.lo[2])],
+            hi: [self.hi[0].max(o.hi[0]), self.hi[1].max(o.hi[1]), self.hi[2].max(o.hi[2])],
+        }
+    }
+
+    /// A unit direction `d` with `n · d > 1e-6` for every point `n` of the box (so for every
+    /// unit normal in it), or `None`. `d` is the box's normalised centre; the minimum of the
+    /// linear function `n · d` over the box is at a corner, `Σ min(lo·d, hi·d)` per axis.
+    fn direction(&self) -> Option<Vec3> {
+        let c = Vec3::new(self.lo[0] + self.hi[0], self.lo[1] + self.hi[1], self.lo[2] + self.hi[2]);
+        let cn = c.norm();
+        if !(cn.is_finite() && cn > 0.0) {
+            return None;
+        }
+        let d = c / cn;
+        let m: f64 = (0..3).map(|ax| (self.lo[ax] * d[ax]).min(self.hi[ax] * d[ax])).sum();
+        (m > 1e-6).then_some(d)
+    }
+}
+
+/// Smallest node (in faces) whose disk-patch test is tried: below it, checking the boundary
+/// costs more than the pairs it would skip.
+const MIN_PATCH: u32 = 16;
+
+/// Per node, the range of its boundary edges in the returned list when its faces form a
+/// topological disk of at least [`MIN_PATCH`] faces (an empty range otherwise). Topology
+/// only, computed once per tree. A face set is a disk when it is connected, every vertex's
+/// ring is one fan in the mesh ([`RING_CLOSED`] or [`RING_OPEN`]) with zero or two boundary
+/// edges of the set at that vertex (so the set is a surface with boundary), its boundary is
+/// not empty and its Euler characteristic `V − E + F` is 1 (`2 − 2g − b = 1` with `b ≥ 1`
+/// gives genus 0 and one boundary loop).
+fn disk_patches(
+    mesh: &TriMesh,
+    nodes: &[Node],
+    order: &[u32],
+    slot_of: &[u32],
+    kinds: &[u8],
+) -> (Vec<[u32; 2]>, Vec<[u32; 2]>) {
+    let topo = mesh.topology();
+    let (faces, face_edges, edge_faces) = (mesh.faces(), topo.face_edges(), topo.edge_faces());
+    let mut range = vec![[0u32; 2]; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let nd = nodes[i];
+        range[i] = if nd.leaf { [nd.a, nd.b] } else { [range[nd.a as usize][0], range[nd.b as usize][1]] };
+    }
+    let mut out = vec![[0u32; 2]; nodes.len()];
+    let mut edges: Vec<[u32; 2]> = Vec::new();
+    let mut deg = vec![0u32; mesh.n_vertices()];
+    let mut seen = vec![u32::MAX; mesh.n_vertices()];
+    let mut reached_by = vec![u32::MAX; faces.len()];
+    let (mut verts, mut stack) = (Vec::new(), Vec::new());
+    for (id, &[lo, hi]) in range.iter().enumerate() {
+        let id32 = id as u32;
+        let start = edges.len();
+        out[id] = [start as u32; 2];
+        if hi - lo < MIN_PATCH {
+            continue;
+        }
+        let inside = |f: u32| f != NO_FACE && (lo..hi).contains(&slot_of[f as usize]);
+        let other = |f: u32, e: u32| {
+            let [g0, g1] = edge_faces[e as usize];
+            if g0 == f {
+                g1
+            } else {
+                g0
+            }
+        };
+        let mut half_interior = 0usize;
+        let mut manifold = true;
+        verts.clear();
+        for &f in &order[lo as usize..hi as usize] {
+            let fv = faces[f as usize];
+            for k in 0..3 {
+                let v = fv[k] as usize;
+                if seen[v] != id32 {
+                    seen[v] = id32;
+                    verts.push(v);
+                    manifold &= kinds[v] != RING_OTHER;
+                }
+                if inside(other(f, face_edges[f as usize][k])) {
+                    half_interior += 1;
+                } else {
+                    let (a, b) = (fv[(k + 1) % 3], fv[(k + 2) % 3]);
+                    edges.push([a, b]);
+                    deg[a as usize] += 1;
+                    deg[b as usize] += 1;
+                }
+            }
+        }
+        let n_boundary = edges.len() - start;
+        for &v in &verts {
+            manifold &= deg[v] == 0 || deg[v] == 2;
+            deg[v] = 0;
+        }
+        let euler = verts.len() as i64 - (half_interior / 2 + n_boundary) as i64 + (hi - lo) as i64;
+        let mut disk = manifold && euler == 1 && n_boundary > 0;
+        if disk {
+            let f0 = order[lo as usize];
+            reached_by[f0 as usize] = id32;
+            stack.clear();
+            stack.push(f0);
+            let mut reached = 1;
+            while let Some(f) = stack.pop() {
+                for e in face_edges[f as usize] {
+                    let g = other(f, e);
+                    if inside(g) && reached_by[g as usize] != id32 {
+                        reached_by[g as usize] = id32;
+                        reached += 1;
+                        stack.push(g);
+                    }
+                }
+            }
+            disk = reached == hi - lo;
+        }
+        if disk {
+            out[id] = [start as u32, edges.len() as u32];
+        } else {
+            edges.truncate(start);
+        }
+    }
+    (out, edges)
+}
+
+/// A boundary edge of a patch projected to the plane: its vertex ids, end points and
+/// smallest `x`.
+#[derive(Debug, Clone, Copy)]
+struct Seg2 {
+    ids: [u32; 2],
+    p: [f64; 2],
+    q: [f64; 2],
+    xmin: f64,
+}
+
+/// `(b − a) × (c − a)` in the plane.
+#[inline]
+fn cross2(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
+    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+}
+
+#[inline]
+fn dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (x, y) = (b[0] - a[0], b[1] - a[1]);
+    (x * x + y * y).sqrt()
+}
+
+/// Whether two projected boundary edges certainly meet at most in a shared end: with one
+/// shared vertex `v`, the other ends must leave `v` in directions that are not the same
+/// (the second more than `tol` from the first's line, or pointing backwards); with none,
+/// one segment's ends must both lie more than `tol` on one side of the other's line. Every
+/// segment is at least `1000 tol` long, and `tol` is far above the rounding of the
+/// projected coordinates, so the answer holds for the exact projection too.
+fn segments_apart(s: &Seg2, t: &Seg2, tol: f64) -> bool {
+    let shared = |x: u32| t.ids[0] == x || t.ids[1] == x;
+    match (shared(s.ids[0]), shared(s.ids[1])) {
+        (true, true) => false,
+        (false, false) => {
+            // `t` beside `s`'s line, or (on a common line) before or after `s` along it.
+            let one_side = |s: &Seg2, t: &Seg2| {
+                let len = dist2(s.p, s.q);
+                let (c0, c1) = (cross2(s.p, s.q, t.p), cross2(s.p, s.q, t.q));
+                let e = [s.q[0] - s.p[0], s.q[1] - s.p[1]];
+                let along = |x: [f64; 2]| (x[0] - s.p[0]) * e[0] + (x[1] - s.p[1]) * e[1];
+                let (a0, a1) = (along(t.p), along(t.q));
+                let (lo, hi) = (-tol * len, len * len + tol * len);
+                (c0 > tol * len && c1 > tol * len)
+                    || (c0 < -tol * len && c1 < -tol * len)
+                    || (a0 < lo && a1 < lo)
+                    || (a0 > hi && a1 > hi)
+            };
+            one_side(s, t) || one_side(t, s)
+        }
+        (sh0, _) => {
+            let (v, x) = if sh0 { (s.p, s.q) } else { (s.q, s.p) };
+            let v_id = if sh0 { s.ids[0] } else { s.ids[1] };
+            let y = if t.ids[0] == v_id { t.q } else { t.p };
+            let (lx, ly) = (dist2(v, x), dist2(v, y));
+            let cross = cross2(v, x, y);
+            let dot = (x[0] - v[0]) * (y[0] - v[0]) + (x[1] - v[1]) * (y[1] - v[1]);
+            cross.abs() > tol * lx || dot < -1e-6 * lx * ly
+        }
+    }
+}
+
 /// A BVH node: an inner node with children `a`, `b`, or a leaf over slots `a..b`.
 #[derive(Debug, Clone, Copy)]
 struct Node {
@@ -267,12 +488,20 @@ pub struct SelfIntersector {
     slot_groups: Vec<u32>,
     /// Per vertex: [`RING_CLOSED`], [`RING_OPEN`] or [`RING_OTHER`].
     ring_kind: Vec<u8>,
+    /// Per node: its range in `patch_edges` when its faces form a topological disk of at
+    /// least [`MIN_PATCH`] faces (empty otherwise); see [`Traversal::patch_is_embedded`].
+    patch_ranges: Vec<[u32; 2]>,
+    /// Boundary edges (vertex pairs) of the disk nodes, node after node.
+    patch_edges: Vec<[u32; 2]>,
     // Per-call buffers, reused.
     boxes: Vec<Aabb3>,
     /// Per group of [`LEAF_SIZE`] slots (every leaf is one such group).
     lanes: Vec<LeafBoxes>,
     planes: Vec<FacePlane>,
     rings: Vec<bool>,
+    /// Per leaf group, then per node: the box of the unit face normals.
+    group_normals: Vec<NormalBox>,
+    node_normals: Vec<NormalBox>,
 }
 
 impl std::fmt::Debug for SelfIntersector {
@@ -297,7 +526,9 @@ impl SelfIntersector {
         let mut order: Vec<u32> = (0..n as u32).collect();
         let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 2);
         if n > 0 {
-            build_node(&mut nodes, &mut order, 0, n, &centroids);
+            let mut b =
+                Builder { mesh, centroids: &centroids, mark: vec![u32::MAX; n], strays: [Vec::new(), Vec::new()] };
+            b.node(&mut nodes, &mut order, 0, n);
         }
         let mut slot_of = vec![0u32; n];
         for (slot, &f) in order.iter().enumerate() {
@@ -305,9 +536,13 @@ impl SelfIntersector {
         }
         let faces = mesh.faces().to_vec();
         let slot_faces = order.iter().map(|&f| faces[f as usize]).collect();
+        let ring_kind = ring_kinds(mesh);
+        let (patch_ranges, patch_edges) = disk_patches(mesh, &nodes, &order, &slot_of, &ring_kind);
         Self {
             slot_groups: vec![0; n],
-            ring_kind: ring_kinds(mesh),
+            ring_kind,
+            patch_ranges,
+            patch_edges,
             faces,
             groups: Vec::new(),
             nodes,
@@ -318,6 +553,8 @@ impl SelfIntersector {
             lanes: Vec::new(),
             planes: Vec::new(),
             rings: Vec::new(),
+            group_normals: Vec::new(),
+            node_normals: Vec::new(),
         }
     }
 
@@ -355,6 +592,9 @@ impl SelfIntersector {
             lanes: &self.lanes,
             planes: &self.planes,
             rings: &self.rings,
+            patch_ranges: &self.patch_ranges,
+            patch_edges: &self.patch_edges,
+            normals: &self.node_normals,
         };
         let tasks = ctx.tasks(64);
         let acc = tasks
@@ -380,22 +620,28 @@ impl SelfIntersector {
         let n = self.order.len();
         self.boxes.resize(n, Aabb3::EMPTY);
         self.planes.resize(n, FacePlane::ZERO);
-        self.lanes.resize(n.div_ceil(LEAF_SIZE), LeafBoxes::EMPTY);
+        let n_groups = n.div_ceil(LEAF_SIZE);
+        self.lanes.resize(n_groups, LeafBoxes::EMPTY);
+        self.group_normals.resize(n_groups, NormalBox::EMPTY);
+        self.node_normals.resize(self.nodes.len(), NormalBox::EMPTY);
         let pos = mesh.positions();
         let slot_faces = &self.slot_faces;
         // One parallel pass over leaf groups: f64 boxes and planes per slot, then the
-        // group's f32 lanes (unused lanes keep their empty boxes).
+        // group's f32 lanes (unused lanes keep their empty boxes) and normal box.
         self.lanes
             .par_iter_mut()
+            .zip(self.group_normals.par_iter_mut())
             .zip(self.boxes.par_chunks_mut(LEAF_SIZE))
             .zip(self.planes.par_chunks_mut(LEAF_SIZE))
             .enumerate()
             .with_min_len(256)
-            .for_each(|(group, ((lanes, boxes), planes))| {
+            .for_each(|(group, (((lanes, nbox), boxes), planes))| {
+                *nbox = NormalBox::EMPTY;
                 for (k, (bx, pl)) in boxes.iter_mut().zip(planes.iter_mut()).enumerate() {
                     let [a, b, c] = slot_faces[group * LEAF_SIZE + k].map(|v| pos[v as usize]);
                     *bx = Aabb3::of_triangle(a, b, c);
                     *pl = FacePlane::of_triangle(a, b, c);
+                    nbox.add_face(pl.n, b - a, c - a);
                     for ax in 0..3 {
                         lanes.lo[ax][k] = f32_down(bx.lo[ax]);
                         lanes.hi[ax][k] = f32_up(bx.hi[ax]);
@@ -404,11 +650,17 @@ impl SelfIntersector {
             });
         for i in (0..self.nodes.len()).rev() {
             let nd = self.nodes[i];
-            self.nodes[i].bbox = if nd.leaf {
-                self.boxes[nd.a as usize..nd.b as usize].iter().fold(Aabb3::EMPTY, |acc, b| acc.union(b))
+            if nd.leaf {
+                // A leaf is exactly one group (leaf sizes are multiples of LEAF_SIZE but
+                // the last, and never more than LEAF_SIZE).
+                self.nodes[i].bbox =
+                    self.boxes[nd.a as usize..nd.b as usize].iter().fold(Aabb3::EMPTY, |acc, b| acc.union(b));
+                self.node_normals[i] = self.group_normals[nd.a as usize / LEAF_SIZE];
             } else {
-                self.nodes[nd.a as usize].bbox.union(&self.nodes[nd.b as usize].bbox)
-            };
+                let (ca, cb) = (nd.a as usize, nd.b as usize);
+                self.nodes[i].bbox = self.nodes[ca].bbox.union(&self.nodes[cb].bbox);
+                self.node_normals[i] = self.node_normals[ca].union(&self.node_normals[cb]);
+            }
         }
         self.rings.resize(mesh.n_vertices(), false);
         let (planes, slot_of, kinds) = (&self.planes, &self.slot_of, &self.ring_kind);
@@ -418,37 +670,91 @@ impl SelfIntersector {
     }
 }
 
-/// Builds the subtree over `order[lo..hi]` (median split of centroids along the longest
-/// axis, leaf sizes a multiple of [`LEAF_SIZE`] except the last); returns its node index.
-/// Parents come before their children in `nodes`.
-fn build_node(nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize, centroids: &[Vec3]) -> u32 {
-    let id = nodes.len();
-    nodes.push(Node { bbox: Aabb3::EMPTY, a: lo as u32, b: hi as u32, leaf: true });
-    if hi - lo <= LEAF_SIZE {
-        return id as u32;
+/// Tree construction state: the mesh (for edge neighbours), face centroids and scratch.
+struct Builder<'a> {
+    mesh: &'a TriMesh,
+    centroids: &'a [Vec3],
+    /// Per face: `2 node + side` of the split being made.
+    mark: Vec<u32>,
+    strays: [Vec<usize>; 2],
+}
+
+impl Builder<'_> {
+    /// Builds the subtree over `order[lo..hi]` (median split of centroids along the longest
+    /// axis, leaf sizes a multiple of [`LEAF_SIZE`] except the last); returns its node index.
+    /// Parents come before their children in `nodes`.
+    ///
+    /// After the split, faces with no edge neighbour on their own side ("strays", typical
+    /// where the split line zigzags through a triangulated grid) are swapped pairwise with
+    /// strays of the other side that have an edge neighbour there, so that more nodes are
+    /// topological disks (see [`disk_patches`]); the sizes of both sides are unchanged.
+    fn node(&mut self, nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize) -> u32 {
+        let id = nodes.len();
+        nodes.push(Node { bbox: Aabb3::EMPTY, a: lo as u32, b: hi as u32, leaf: true });
+        if hi - lo <= LEAF_SIZE {
+            return id as u32;
+        }
+        let centroids = self.centroids;
+        let (mut cmin, mut cmax) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+        for &f in &order[lo..hi] {
+            cmin = cmin.inf(&centroids[f as usize]);
+            cmax = cmax.sup(&centroids[f as usize]);
+        }
+        let ext = cmax - cmin;
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
+        let n_leaves = (hi - lo).div_ceil(LEAF_SIZE);
+        let mid = lo + (n_leaves / 2) * LEAF_SIZE;
+        order[lo..hi].select_nth_unstable_by(mid - lo, |&a, &b| {
+            centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]).then(a.cmp(&b))
+        });
+        self.swap_strays(order, lo, mid, hi, id as u32);
+        let l = self.node(nodes, order, lo, mid);
+        let r = self.node(nodes, order, mid, hi);
+        nodes[id] = Node { bbox: Aabb3::EMPTY, a: l, b: r, leaf: false };
+        id as u32
     }
-    let (mut cmin, mut cmax) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
-    for &f in &order[lo..hi] {
-        cmin = cmin.inf(&centroids[f as usize]);
-        cmax = cmax.sup(&centroids[f as usize]);
+
+    fn swap_strays(&mut self, order: &mut [u32], lo: usize, mid: usize, hi: usize, id: u32) {
+        let topo = self.mesh.topology();
+        let (face_edges, edge_faces) = (topo.face_edges(), topo.edge_faces());
+        for (k, &f) in order[lo..hi].iter().enumerate() {
+            self.mark[f as usize] = 2 * id + (lo + k >= mid) as u32;
+        }
+        let mark = &self.mark;
+        // (neighbours on the same side, on the other side) within this node.
+        let count = |f: u32| {
+            let own = mark[f as usize];
+            let (mut same, mut other) = (0, 0);
+            for e in face_edges[f as usize] {
+                let [g0, g1] = edge_faces[e as usize];
+                let g = if g0 == f { g1 } else { g0 };
+                if g != NO_FACE {
+                    let m = mark[g as usize];
+                    same += (m == own) as u32;
+                    other += (m == own ^ 1) as u32;
+                }
+            }
+            (same, other)
+        };
+        for (side, range) in [(0, lo..mid), (1, mid..hi)] {
+            self.strays[side].clear();
+            for slot in range {
+                let (same, other) = count(order[slot]);
+                if same == 0 && other > 0 {
+                    self.strays[side].push(slot);
+                }
+            }
+        }
+        for (&a, &b) in self.strays[0].iter().zip(&self.strays[1]) {
+            order.swap(a, b);
+        }
     }
-    let ext = cmax - cmin;
-    let axis = if ext.x >= ext.y && ext.x >= ext.z {
-        0
-    } else if ext.y >= ext.z {
-        1
-    } else {
-        2
-    };
-    let n_leaves = (hi - lo).div_ceil(LEAF_SIZE);
-    let mid = lo + (n_leaves / 2) * LEAF_SIZE;
-    order[lo..hi].select_nth_unstable_by(mid - lo, |&a, &b| {
-        centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]).then(a.cmp(&b))
-    });
-    let l = build_node(nodes, order, lo, mid, centroids);
-    let r = build_node(nodes, order, mid, hi, centroids);
-    nodes[id] = Node { bbox: Aabb3::EMPTY, a: l, b: r, leaf: false };
-    id as u32
 }
 
 /// A unit of traversal work: the face pairs within one subtree, or between two subtrees
@@ -463,6 +769,8 @@ enum Task {
 struct Acc {
     results: Vec<PairResult>,
     candidates: usize,
+    /// Scratch for [`Traversal::patch_is_embedded`].
+    segs: Vec<Seg2>,
 }
 
 struct Traversal<'a> {
@@ -474,9 +782,74 @@ struct Traversal<'a> {
     lanes: &'a [LeafBoxes],
     planes: &'a [FacePlane],
     rings: &'a [bool],
+    patch_ranges: &'a [[u32; 2]],
+    patch_edges: &'a [[u32; 2]],
+    normals: &'a [NormalBox],
 }
 
 impl Traversal<'_> {
+    /// Whether node `n`'s faces certainly cannot cross or touch each other (beyond the edges
+    /// and vertices they share), so the node's whole self-traversal can be skipped.
+    ///
+    /// The faces must form a topological disk `S` (see [`disk_patches`]) and there must be
+    /// a direction `d` with `n_f · d > 0` for every face normal (from the node's
+    /// [`NormalBox`]). Then the projection `π` along `d` keeps every face's orientation, and
+    /// for a point `x` of the plane off `π(∂S)` and off the projected edges, the number of
+    /// its preimages equals the winding number of `π(∂S)` around it (degree theory: each
+    /// preimage counts +1). If `π(∂S)` is a simple closed curve (checked here with float
+    /// margins, see [`segments_apart`]), that number is 0 or 1; so `π` is a local
+    /// homeomorphism inside `S` (a vertex whose ring wound twice would have points with two
+    /// preimages nearby) and, with a simple boundary, injective on all of `S`. An injective
+    /// projection means `S` is embedded: two faces meet only in their shared vertices and
+    /// edges, and are otherwise a positive distance apart, which no symbolic perturbation
+    /// changes. (The known-answer and brute-force tests cover folded patches, where the
+    /// normal test fails and nothing is skipped.)
+    fn patch_is_embedded(&self, n: u32, segs: &mut Vec<Seg2>) -> bool {
+        let [start, end] = self.patch_ranges[n as usize];
+        if start == end {
+            return false;
+        }
+        let Some(d) = self.normals[n as usize].direction() else {
+            return false;
+        };
+        let helper = if d.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
+        let u = d.cross(&helper).normalize();
+        let w = d.cross(&u);
+        let bb = self.nodes[n as usize].bbox;
+        let lo = Vec3::new(bb.lo[0], bb.lo[1], bb.lo[2]);
+        let hi = Vec3::new(bb.hi[0], bb.hi[1], bb.hi[2]);
+        let c = (lo + hi) * 0.5;
+        let diag = (hi - lo).norm();
+        let tol = 1e-8 * diag;
+        if !(tol > 0.0 && tol.is_finite()) {
+            return false;
+        }
+        let pos = self.mesh.positions();
+        segs.clear();
+        for &[a, b] in &self.patch_edges[start as usize..end as usize] {
+            let (da, db) = (pos[a as usize] - c, pos[b as usize] - c);
+            let (p, q) = ([da.dot(&u), da.dot(&w)], [db.dot(&u), db.dot(&w)]);
+            let len = dist2(p, q);
+            if len.is_nan() || len <= 1000.0 * tol {
+                return false;
+            }
+            segs.push(Seg2 { ids: [a, b], p, q, xmin: p[0].min(q[0]) });
+        }
+        segs.sort_unstable_by(|x, y| x.xmin.total_cmp(&y.xmin));
+        for (i, s) in segs.iter().enumerate() {
+            let xmax = s.p[0].max(s.q[0]) + tol;
+            for t in &segs[i + 1..] {
+                if t.xmin > xmax {
+                    break;
+                }
+                if !segments_apart(s, t, tol) {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
     /// Splits the root's work into at least `min_tasks` tasks where the tree allows, for
     /// rayon to spread over the threads.
     fn tasks(&self, min_tasks: usize) -> Vec<Task> {
@@ -484,11 +857,12 @@ impl Traversal<'_> {
             return Vec::new();
         }
         let mut tasks = vec![Task::Within(0)];
+        let mut segs = Vec::new();
         loop {
             let mut next = Vec::with_capacity(tasks.len() * 3);
             let mut split_any = false;
             for &t in &tasks {
-                split_any |= self.expand(t, &mut next);
+                split_any |= self.expand(t, &mut next, &mut segs);
             }
             tasks = next;
             if !split_any || tasks.len() >= min_tasks {
@@ -499,7 +873,7 @@ impl Traversal<'_> {
 
     /// Pushes the sub-tasks of `t` (or `t` itself when it is leaf-level); returns whether it
     /// was split.
-    fn expand(&self, t: Task, out: &mut Vec<Task>) -> bool {
+    fn expand(&self, t: Task, out: &mut Vec<Task>, segs: &mut Vec<Seg2>) -> bool {
         let nodes = self.nodes;
         match t {
             Task::Within(n) => {
@@ -507,6 +881,9 @@ impl Traversal<'_> {
                 if nd.leaf {
                     out.push(t);
                     return false;
+                }
+                if self.patch_is_embedded(n, segs) {
+                    return true;
                 }
                 out.push(Task::Within(nd.a));
                 out.push(Task::Within(nd.b));
@@ -546,7 +923,7 @@ impl Traversal<'_> {
                     let nd = nodes[n as usize];
                     if nd.leaf {
                         self.leaf_within(nd.a, nd.b, acc);
-                    } else {
+                    } else if !self.patch_is_embedded(n, &mut acc.segs) {
                         stack.push(Task::Within(nd.a));
                         stack.push(Task::Within(nd.b));
                         if nodes[nd.a as usize].bbox.overlaps(&nodes[nd.b as usize].bbox) {
@@ -1349,5 +1726,112 @@ mod tests {
             }
         }
         assert!(accepted > 100 && rejected > 100, "{accepted} {rejected}");
+    }
+
+    /// Internal nodes whose self-traversal [`Traversal::patch_is_embedded`] skips, for the
+    /// positions `ix` was last refit to.
+    fn skipped_nodes(ix: &SelfIntersector, mesh: &TriMesh) -> Vec<u32> {
+        let ctx = Traversal {
+            mesh,
+            nodes: &ix.nodes,
+            order: &ix.order,
+            slot_faces: &ix.slot_faces,
+            slot_groups: &ix.slot_groups,
+            lanes: &ix.lanes,
+            planes: &ix.planes,
+            rings: &ix.rings,
+            patch_ranges: &ix.patch_ranges,
+            patch_edges: &ix.patch_edges,
+            normals: &ix.node_normals,
+        };
+        let mut segs = Vec::new();
+        (0..ix.nodes.len() as u32)
+            .filter(|&n| !ix.nodes[n as usize].leaf && ctx.patch_is_embedded(n, &mut segs))
+            .collect()
+    }
+
+    /// A flat strip wound 1.25 times around the z axis, climbing 0.02 per turn, tilted
+    /// about its centre line from +0.3 rad at the start to −0.3 rad at the end: every
+    /// normal is within 0.3 rad of z (a narrow cone) and the strip is one disk, but its last
+    /// quarter turn crosses its first (the tilts differ by more than the climb allows).
+    fn crossing_spiral_strip(n_around: usize, n_across: usize) -> TriMesh {
+        let turns = 1.25;
+        let (w, climb, tilt) = (0.3, 0.02, 0.3);
+        let mut pos = Vec::new();
+        for i in 0..=n_around {
+            let u = i as f64 / n_around as f64;
+            let th = u * turns * std::f64::consts::TAU;
+            let a = tilt * (1.0 - 2.0 * u);
+            for j in 0..=n_across {
+                let s = w * (j as f64 / n_across as f64 - 0.5);
+                let r = 1.0 + s * a.cos();
+                pos.push(Vec3::new(r * th.cos(), r * th.sin(), climb * u * turns + s * a.sin()));
+            }
+        }
+        let id = |i: usize, j: usize| (i * (n_across + 1) + j) as u32;
+        let mut faces = Vec::new();
+        for i in 0..n_around {
+            for j in 0..n_across {
+                faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+                faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+        TriMesh::new(pos, faces).unwrap()
+    }
+
+    #[test]
+    fn embedded_patches_are_skipped_and_overlapping_ones_are_not() {
+        // A gently curved height-field sheet: no crossings, and whole subtrees skipped.
+        let sheet = shapes::grid_sheet(1.0, 1.0, 40, 40).unwrap();
+        let p: Vec<Vec3> = sheet
+            .positions()
+            .iter()
+            .map(|p| Vec3::new(p.x, p.y, 0.1 * (3.0 * p.x).sin() * (2.0 * p.y).cos()))
+            .collect();
+        let sheet = sheet.with_positions(p).unwrap();
+        let mut ix = SelfIntersector::new(&sheet);
+        let found = ix.find(&sheet);
+        assert!(found.segments.is_empty() && found.n_candidate_pairs == 0, "{found:?}");
+        let skipped = skipped_nodes(&ix, &sheet);
+        assert!(skipped.contains(&0), "the root patch of a height field should be skipped: {skipped:?}");
+
+        // The spiral strip: narrow normal cone, one disk, but it crosses itself, so the
+        // root must not be skipped (its projected boundary overlaps itself) while smaller
+        // patches are.
+        let strip = crossing_spiral_strip(240, 6);
+        let mut ix = SelfIntersector::new(&strip);
+        let found = ix.find(&strip);
+        assert!(ix.patch_ranges[0][0] < ix.patch_ranges[0][1], "the strip is one disk");
+        assert!(ix.node_normals[0].direction().is_some(), "the strip's normals lie in a narrow cone");
+        let skipped = skipped_nodes(&ix, &strip);
+        assert!(!skipped.contains(&0) && skipped.len() > 5, "{skipped:?}");
+        assert!(found.segments.len() > 20, "{} segments", found.segments.len());
+        let slow = brute_force(&strip);
+        assert_eq!(found.points, slow.points);
+        assert_eq!(found.segments, slow.segments);
+
+        // Folded through itself (wide normal cone): nothing that crosses is skipped.
+        let folded = shapes::folded_sheet(1.0, 24).unwrap();
+        let found = self_intersections(&folded);
+        assert_eq!(found.segments, brute_force(&folded).segments);
+    }
+
+    #[test]
+    fn boundary_segment_tests_separate_only_with_margin() {
+        let seg = |ids: [u32; 2], p: [f64; 2], q: [f64; 2]| Seg2 { ids, p, q, xmin: p[0].min(q[0]) };
+        let tol = 1e-9;
+        // Collinear, disjoint along the line.
+        assert!(segments_apart(&seg([0, 1], [0.0, 0.0], [1.0, 0.0]), &seg([2, 3], [2.0, 0.0], [3.0, 0.0]), tol));
+        // Collinear, overlapping.
+        assert!(!segments_apart(&seg([0, 1], [0.0, 0.0], [1.0, 0.0]), &seg([2, 3], [0.5, 0.0], [3.0, 0.0]), tol));
+        // Crossing.
+        assert!(!segments_apart(&seg([0, 1], [0.0, 0.0], [1.0, 1.0]), &seg([2, 3], [0.0, 1.0], [1.0, 0.0]), tol));
+        // Touching at a vertex of the other (not shared): not certainly apart.
+        assert!(!segments_apart(&seg([0, 1], [0.0, 0.0], [1.0, 0.0]), &seg([2, 3], [0.5, 0.0], [0.5, 1.0]), tol));
+        // Sharing a vertex: apart unless they leave it in the same direction.
+        assert!(segments_apart(&seg([0, 1], [0.0, 0.0], [1.0, 0.0]), &seg([1, 2], [1.0, 0.0], [2.0, 0.0]), tol));
+        assert!(segments_apart(&seg([0, 1], [0.0, 0.0], [1.0, 0.0]), &seg([1, 2], [1.0, 0.0], [0.0, 1.0]), tol));
+        assert!(!segments_apart(&seg([0, 1], [0.0, 0.0], [1.0, 0.0]), &seg([1, 2], [1.0, 0.0], [0.5, 0.0]), tol));
+        assert!(!segments_apart(&seg([0, 1], [0.0, 0.0], [1.0, 0.0]), &seg([0, 1], [0.0, 0.0], [1.0, 0.0]), tol));
     }
 }
