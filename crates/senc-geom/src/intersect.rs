@@ -25,6 +25,7 @@
 //!   depend on the thread count or on whether the BVH was refit or rebuilt.
 
 use std::cmp::Ordering;
+use std::sync::atomic::{AtomicU8, Ordering as AtomicOrdering};
 
 use rayon::prelude::*;
 
@@ -441,6 +442,11 @@ const RING_OTHER: u8 = 0;
 const RING_CLOSED: u8 = 1;
 const RING_OPEN: u8 = 2;
 
+/// Cached answers of the lazy ring test ([`Traversal::ring_embedded`]).
+const RING_UNKNOWN: u8 = 0;
+const RING_YES: u8 = 1;
+const RING_NO: u8 = 2;
+
 /// Float plane of a face for the conservative side filter: a point `v` is certainly on the
 /// side `sign(n · (v − p))` when `(n · (v − p))² > tol2 · |v − p|²`. The tolerance bounds
 /// the rounding of the cross and dot products (a few ulp of `|q−p| |r−p| |v−p|`; we use
@@ -498,7 +504,10 @@ pub struct SelfIntersector {
     /// Per group of [`LEAF_SIZE`] slots (every leaf is one such group).
     lanes: Vec<LeafBoxes>,
     planes: Vec<FacePlane>,
-    rings: Vec<bool>,
+    /// Per vertex, whether its ring is embedded ([`RING_YES`] / [`RING_NO`]), or
+    /// [`RING_UNKNOWN`] until a pair sharing only that vertex asks (computed lazily: most
+    /// vertices lie inside skipped patches and are never asked about).
+    rings: Vec<AtomicU8>,
     /// Per leaf group, then per node: the box of the unit face normals.
     group_normals: Vec<NormalBox>,
     node_normals: Vec<NormalBox>,
@@ -526,8 +535,13 @@ impl SelfIntersector {
         let mut order: Vec<u32> = (0..n as u32).collect();
         let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 2);
         if n > 0 {
-            let mut b =
-                Builder { mesh, centroids: &centroids, mark: vec![u32::MAX; n], strays: [Vec::new(), Vec::new()] };
+            let mut b = Builder {
+                mesh,
+                centroids: &centroids,
+                mark: vec![u32::MAX; n],
+                strays: [Vec::new(), Vec::new()],
+                notches: [Vec::new(), Vec::new()],
+            };
             b.node(&mut nodes, &mut order, 0, n);
         }
         let mut slot_of = vec![0u32; n];
@@ -592,6 +606,8 @@ impl SelfIntersector {
             lanes: &self.lanes,
             planes: &self.planes,
             rings: &self.rings,
+            slot_of: &self.slot_of,
+            ring_kind: &self.ring_kind,
             patch_ranges: &self.patch_ranges,
             patch_edges: &self.patch_edges,
             normals: &self.node_normals,
@@ -662,11 +678,10 @@ impl SelfIntersector {
                 self.node_normals[i] = self.node_normals[ca].union(&self.node_normals[cb]);
             }
         }
-        self.rings.resize(mesh.n_vertices(), false);
-        let (planes, slot_of, kinds) = (&self.planes, &self.slot_of, &self.ring_kind);
-        self.rings.par_iter_mut().enumerate().with_min_len(512).for_each(|(s, r)| {
-            *r = ring_is_embedded(mesh, s as u32, kinds[s], |f| planes[slot_of[f as usize] as usize].n);
-        });
+        self.rings.resize_with(mesh.n_vertices(), || AtomicU8::new(RING_UNKNOWN));
+        for r in &mut self.rings {
+            *r.get_mut() = RING_UNKNOWN;
+        }
     }
 }
 
@@ -677,6 +692,7 @@ struct Builder<'a> {
     /// Per face: `2 node + side` of the split being made.
     mark: Vec<u32>,
     strays: [Vec<usize>; 2],
+    notches: [Vec<usize>; 2],
 }
 
 impl Builder<'_> {
@@ -726,33 +742,49 @@ impl Builder<'_> {
         for (k, &f) in order[lo..hi].iter().enumerate() {
             self.mark[f as usize] = 2 * id + (lo + k >= mid) as u32;
         }
-        let mark = &self.mark;
-        // (neighbours on the same side, on the other side) within this node.
-        let count = |f: u32| {
-            let own = mark[f as usize];
-            let (mut same, mut other) = (0, 0);
-            for e in face_edges[f as usize] {
-                let [g0, g1] = edge_faces[e as usize];
-                let g = if g0 == f { g1 } else { g0 };
-                if g != NO_FACE {
-                    let m = mark[g as usize];
-                    same += (m == own) as u32;
-                    other += (m == own ^ 1) as u32;
+        // Strays first, then notches (one neighbour on their side, two on the other),
+        // per side; a stray is swapped with a stray of the other side, else with a notch.
+        for _ in 0..2 {
+            let mark = &self.mark;
+            let count = |f: u32| {
+                let own = mark[f as usize];
+                let (mut same, mut other) = (0, 0);
+                for e in face_edges[f as usize] {
+                    let [g0, g1] = edge_faces[e as usize];
+                    let g = if g0 == f { g1 } else { g0 };
+                    if g != NO_FACE {
+                        let m = mark[g as usize];
+                        same += (m == own) as u32;
+                        other += (m == own ^ 1) as u32;
+                    }
+                }
+                (same, other)
+            };
+            for (side, range) in [(0, lo..mid), (1, mid..hi)] {
+                self.strays[side].clear();
+                self.notches[side].clear();
+                for slot in range {
+                    match count(order[slot]) {
+                        (0, o) if o > 0 => self.strays[side].push(slot),
+                        (1, 2) => self.notches[side].push(slot),
+                        _ => {}
+                    }
                 }
             }
-            (same, other)
-        };
-        for (side, range) in [(0, lo..mid), (1, mid..hi)] {
-            self.strays[side].clear();
-            for slot in range {
-                let (same, other) = count(order[slot]);
-                if same == 0 && other > 0 {
-                    self.strays[side].push(slot);
-                }
+            let [sl, sr] = [self.strays[0].len(), self.strays[1].len()];
+            if sl + sr == 0 {
+                break;
             }
-        }
-        for (&a, &b) in self.strays[0].iter().zip(&self.strays[1]) {
-            order.swap(a, b);
+            let m = sl.min(sr);
+            let mut pairs: Vec<(usize, usize)> =
+                self.strays[0].iter().copied().zip(self.strays[1].iter().copied()).collect();
+            pairs.extend(self.strays[0][m..].iter().copied().zip(self.notches[1].iter().copied()));
+            pairs.extend(self.notches[0].iter().copied().zip(self.strays[1][m..].iter().copied()));
+            for (a, b) in pairs {
+                order.swap(a, b);
+                self.mark[order[a] as usize] = 2 * id;
+                self.mark[order[b] as usize] = 2 * id + 1;
+            }
         }
     }
 }
@@ -781,13 +813,35 @@ struct Traversal<'a> {
     slot_groups: &'a [u32],
     lanes: &'a [LeafBoxes],
     planes: &'a [FacePlane],
-    rings: &'a [bool],
+    rings: &'a [AtomicU8],
+    slot_of: &'a [u32],
+    ring_kind: &'a [u8],
     patch_ranges: &'a [[u32; 2]],
     patch_edges: &'a [[u32; 2]],
     normals: &'a [NormalBox],
 }
 
 impl Traversal<'_> {
+    /// Whether vertex `s`'s ring is embedded ([`ring_is_embedded`] for the current
+    /// positions), computed on first use and cached for this call. Threads racing on one
+    /// vertex compute the same value.
+    #[inline]
+    fn ring_embedded(&self, s: u32) -> bool {
+        let cell = &self.rings[s as usize];
+        match cell.load(AtomicOrdering::Relaxed) {
+            RING_YES => true,
+            RING_NO => false,
+            _ => {
+                let (planes, slot_of) = (self.planes, self.slot_of);
+                let r = ring_is_embedded(self.mesh, s, self.ring_kind[s as usize], |f| {
+                    planes[slot_of[f as usize] as usize].n
+                });
+                cell.store(if r { RING_YES } else { RING_NO }, AtomicOrdering::Relaxed);
+                r
+            }
+        }
+    }
+
     /// Whether node `n`'s faces certainly cannot cross or touch each other (beyond the edges
     /// and vertices they share), so the node's whole self-traversal can be skipped.
     ///
@@ -1003,7 +1057,7 @@ impl Traversal<'_> {
         if gi != 0 && gi == self.slot_groups[j] {
             return;
         }
-        if n_shared == 1 && self.rings[shared as usize] {
+        if n_shared == 1 && self.ring_embedded(shared) {
             return;
         }
         acc.candidates += 1;
@@ -1740,6 +1794,8 @@ mod tests {
             lanes: &ix.lanes,
             planes: &ix.planes,
             rings: &ix.rings,
+            slot_of: &ix.slot_of,
+            ring_kind: &ix.ring_kind,
             patch_ranges: &ix.patch_ranges,
             patch_edges: &ix.patch_edges,
             normals: &ix.node_normals,
