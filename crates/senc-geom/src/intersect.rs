@@ -464,8 +464,8 @@ impl FacePlane {
     #[inline]
     fn of_triangle(p: Vec3, q: Vec3, r: Vec3) -> Self {
         let (a, b) = (q - p, r - p);
-        let tol = 1e-13 * a.norm() * b.norm();
-        FacePlane { p, n: a.cross(&b), tol2: tol * tol }
+        // (1e-13 |a| |b|)², without the square roots.
+        FacePlane { p, n: a.cross(&b), tol2: 1e-26 * a.norm_squared() * b.norm_squared() }
     }
 }
 
@@ -1165,14 +1165,17 @@ fn ring_is_embedded(mesh: &TriMesh, s: u32, kind: u8, normal: impl Fn(u32) -> Ve
     let faces = mesh.faces();
     let ring = topo.vertex_faces(s);
     let n: Vec3 = ring.iter().map(|&f| normal(f)).sum();
-    let nn = n.norm();
-    if !(nn.is_finite() && nn > 0.0) {
+    let nn2 = n.norm_squared();
+    if !(nn2.is_finite() && nn2 > 0.0) {
         return false;
     }
-    let n = n / nn;
-    let helper = if n.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
-    let u = n.cross(&helper).normalize();
+    // An orthogonal frame of the plane normal to `n` with |u| = |w| = |n| |n × helper|: the
+    // unit frame scaled by one positive factor, which changes no sign and no ratio below
+    // (and saves two square roots and the divisions of normalising).
+    let helper = if n.x * n.x < 0.81 * nn2 { Vec3::x() } else { Vec3::y() };
+    let u = n.cross(&helper);
     let w = n.cross(&u);
+    let u = u * nn2.sqrt();
     let ps = pos[s as usize];
     let mut winding = 0u32;
     let mut total = 0.0;
