@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use senc_train::eval::{evaluate, first_scene, write_reports, Method};
+use senc_train::eval::{evaluate, first_scene, one_step_probe, write_reports, Method};
 use senc_train::RunConfig;
 
 /// The garment asset a config's first scene uses (canonical path, for matching).
@@ -111,5 +111,24 @@ pub fn run(
     let command = std::env::args().skip(1).collect::<Vec<_>>().join(" ");
     write_reports(out, &rows, &curve, &format!("cargo xtask {command}"))?;
     println!("wrote {}/table1.md (+ .csv, .json) and runtime.md (+ .csv, .svg)", out.display());
+    Ok(())
+}
+
+/// `cargo xtask probe`: prints the one-step gaps as a Markdown table.
+pub fn probe(
+    config: &Path,
+    checkpoint: Option<&Path>,
+    states: usize,
+    budgets: &[usize],
+    converged: usize,
+) -> Result<()> {
+    let (rows, reference) = one_step_probe(config, checkpoint, states, budgets, converged)?;
+    let names: Vec<&str> = reference.terms.iter().map(|(n, _)| n.as_str()).collect();
+    println!("| predictor | gap (J) | {} |", names.join(" | "));
+    println!("|---|---:|{}", "---:|".repeat(names.len()));
+    for r in rows.iter().chain(std::iter::once(&reference)) {
+        let t: Vec<String> = r.terms.iter().map(|(_, v)| format!("{v:.3e}")).collect();
+        println!("| {} | {:.3e} | {} |", r.predictor, r.gap, t.join(" | "));
+    }
     Ok(())
 }

@@ -169,11 +169,16 @@ enum Command {
         #[arg(long, default_value = "reports")]
         out: PathBuf,
     },
-    /// Roll a trained model out on a motion: OBJ sequence, animated glTF (GLB) and preview PNGs.
+    /// Roll a trained model (or, with --solver, the reference solver) out on a motion: OBJ
+    /// sequence, animated glTF (GLB) and preview PNGs.
     Simulate {
-        /// Checkpoint directory.
+        /// Checkpoint directory (not needed with --solver and --config).
+        #[arg(long, required_unless_present = "solver")]
+        checkpoint: Option<PathBuf>,
+        /// Simulate with the reference solver instead of a network: at most N Newton
+        /// iterations per frame on the config's phase-2 energy.
         #[arg(long)]
-        checkpoint: PathBuf,
+        solver: Option<usize>,
         /// Motion name (e.g. boxing_toes).
         #[arg(long)]
         motion: String,
@@ -202,6 +207,25 @@ enum Command {
         /// What to time.
         #[command(subcommand)]
         target: bench::Target,
+    },
+    /// One-step probe on training states: the energy gap above the converged reference
+    /// solver of free flight, the skinned garment, short solves and a network's step.
+    Probe {
+        /// Run config (its first scene and training motions).
+        #[arg(long)]
+        config: PathBuf,
+        /// Checkpoint whose network is probed (none: only the classical predictors).
+        #[arg(long)]
+        checkpoint: Option<PathBuf>,
+        /// States sampled from the training motions.
+        #[arg(long, default_value_t = 8)]
+        states: usize,
+        /// Solver iteration budgets to compare.
+        #[arg(long, value_delimiter = ',', default_value = "1,4")]
+        budgets: Vec<usize>,
+        /// Iterations of the converged reference.
+        #[arg(long, default_value_t = 50)]
+        converged: usize,
     },
     /// Draw the body and the garment at a frame of a scene motion (PNG).
     Preview {
@@ -256,9 +280,10 @@ fn main() -> std::process::ExitCode {
         Some(Command::Eval { checkpoint, compare, config, garment, out }) => {
             eval::run(&checkpoint, &compare, &config, garment.as_deref(), &out)
         }
-        Some(Command::Simulate { checkpoint, motion, config, wind, frames, garment, previews, out }) => {
+        Some(Command::Simulate { checkpoint, solver, motion, config, wind, frames, garment, previews, out }) => {
             simulate::run(&simulate::Args {
-                checkpoint: &checkpoint,
+                checkpoint: checkpoint.as_deref(),
+                solver,
                 config: config.as_deref(),
                 motion: &motion,
                 wind: wind.as_deref(),
@@ -269,6 +294,9 @@ fn main() -> std::process::ExitCode {
             })
         }
         Some(Command::Bench { target }) => bench::run(target),
+        Some(Command::Probe { config, checkpoint, states, budgets, converged }) => {
+            eval::probe(&config, checkpoint.as_deref(), states, &budgets, converged)
+        }
         Some(Command::Preview { config, frame, motion, out, size }) => {
             preview::run(&config, frame, motion.as_deref(), &out, size)
         }

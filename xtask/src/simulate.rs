@@ -12,7 +12,7 @@ use senc_model::burn::tensor::Device;
 use senc_model::Model;
 use senc_scene::raster::{render, Layer, BODY, GARMENT_INSIDE, GARMENT_OUTSIDE};
 use senc_train::eval::Method;
-use senc_train::rollout::rollout;
+use senc_train::rollout::{rollout, solver_rollout};
 use senc_train::trainer::scene_material;
 use senc_train::RunConfig;
 
@@ -20,8 +20,10 @@ use crate::glb::{write_animated_glb, AnimatedMesh};
 
 /// What `cargo xtask simulate` was asked for.
 pub struct Args<'a> {
-    /// Checkpoint directory.
-    pub checkpoint: &'a Path,
+    /// Checkpoint directory (a network rollout).
+    pub checkpoint: Option<&'a Path>,
+    /// Newton iterations per frame for a reference-solver rollout instead of a network.
+    pub solver: Option<usize>,
     /// Config (default: the checkpoint's own).
     pub config: Option<&'a Path>,
     /// Motion name.
@@ -53,7 +55,11 @@ fn parse_wind(w: &str) -> Result<Vec3> {
 
 /// Simulates and writes the sequence.
 pub fn run(a: &Args<'_>) -> Result<()> {
-    let mut m = Method::new(a.checkpoint, a.config)?;
+    let mut m = match (a.checkpoint, a.solver, a.config) {
+        (Some(c), _, _) => Method::new(c, a.config)?,
+        (None, Some(_), Some(cfg)) => Method::solver(cfg),
+        _ => bail!("give --checkpoint DIR, or --solver N with --config FILE"),
+    };
     if let Some(g) = a.garment {
         let asset = crate::eval::prepare_garment(g, &m.config)?;
         m = m.with_garment(&asset);
@@ -65,10 +71,18 @@ pub fn run(a: &Args<'_>) -> Result<()> {
         anyhow!("no motion named {}; this scene has {}", a.motion, names.join(", "))
     })?;
     let wind = a.wind.map(parse_wind).transpose()?.unwrap_or_else(Vec3::zeros);
-    let model = Model::load(&m.checkpoint, &Device::flex())?;
     let material = scene_material(&g)?;
     let ext = Vec3::from(g.scene.config.external_force.acceleration) + wind;
-    let r = rollout(&model, &g, motion, a.frames, ext, &material)?;
+    let r = match a.solver {
+        Some(iterations) if a.checkpoint.is_none() => {
+            let energy = cfg.energy_for(2, material, ext.into());
+            solver_rollout(&g, motion, a.frames, &energy, iterations)?
+        }
+        _ => {
+            let model = Model::load(&m.checkpoint, &Device::flex())?;
+            rollout(&model, &g, motion, a.frames, ext, &material)?
+        }
+    };
     std::fs::create_dir_all(a.out).with_context(|| format!("creating {}", a.out.display()))?;
     for (f, (x, b)) in r.cloth.iter().zip(&r.body).enumerate() {
         write_obj(a.out.join(format!("cloth_{f:04}.obj")), x, g.rest.faces())?;

@@ -46,6 +46,11 @@ pub struct SceneConfig {
     /// first frame. Default 15 (0.5 s at 30 fps).
     #[serde(default = "default_lead_in")]
     pub lead_in_frames: usize,
+    /// Turn and shift each motion so that its first frame faces and stands where the rest
+    /// pose does (see `Motion::aligned_to_rest_heading`), so the lead-in never spins or
+    /// slides the body. Default true; false keeps the clips' world heading.
+    #[serde(default = "default_true")]
+    pub align_heading: bool,
     /// Time step of the first simulated step, s. HOOD starts from a static body and takes a
     /// long first step so the garment settles under gravity; default 0.1 s (our choice,
     /// three frames at 30 fps). Set it to `1 / fps` for no special first step.
@@ -63,6 +68,9 @@ pub struct SceneConfig {
 
 fn default_fps() -> f64 {
     30.0
+}
+fn default_true() -> bool {
+    true
 }
 fn default_lead_in() -> usize {
     15

@@ -146,6 +146,38 @@ impl Motion {
         Ok(Self::from_poses(&self.name, self.fps, self.bone_names.clone(), &poses))
     }
 
+    /// The same motion turned about the vertical (Y) axis through the root so that its first
+    /// frame faces the way the rest pose faces, and shifted horizontally so that its first
+    /// frame's root stands where the rest pose's root stands.
+    ///
+    /// The lead-in blends from the rest pose to the first frame; a clip whose first frame
+    /// faces backwards would otherwise spin the whole body by up to 180° in half a second
+    /// (about 9 rad/s at the peak of the smoothstep), far faster than the motion itself, and
+    /// drag the garment through the body. Heading: the yaw of the root's rotated rest
+    /// forward axis +Z (its +X axis when +Z points nearly straight up or down).
+    pub fn aligned_to_rest_heading(&self) -> Self {
+        let Ok(first) = self.pose(0) else { return self.clone() };
+        let Some(root) = first.rotations.first() else { return self.clone() };
+        let f = root * Vec3::z();
+        let yaw = if f.x.hypot(f.z) > 0.2 {
+            f.x.atan2(f.z)
+        } else {
+            let x = root * Vec3::x();
+            (-x.z).atan2(x.x)
+        };
+        let turn = UnitQuaternion::from_axis_angle(&Vec3::y_axis(), -yaw);
+        let t0 = turn * first.root_translation;
+        let shift = Vec3::new(t0.x, 0.0, t0.z);
+        let poses: Vec<Pose> = (0..self.n_frames())
+            .filter_map(|k| self.pose(k).ok())
+            .map(|p| Pose {
+                rotations: p.rotations.iter().map(|w| turn * w).collect(),
+                root_translation: turn * p.root_translation - shift,
+            })
+            .collect();
+        Self::from_poses(&self.name, self.fps, self.bone_names.clone(), &poses)
+    }
+
     /// Frames `start..end` (clamped) as a new motion.
     pub fn slice(&self, start: usize, end: usize) -> Self {
         let end = end.min(self.n_frames());

@@ -79,6 +79,7 @@ impl Scene {
                     let m: Motion = crate::assets::read_msgpack(p)?;
                     m.check(&body.skeleton)?;
                     let m = if (m.fps - config.fps).abs() > 1e-9 { m.resample(config.fps)? } else { m };
+                    let m = if config.align_heading { m.aligned_to_rest_heading() } else { m };
                     m.with_lead_in(config.lead_in_frames)
                 })
                 .collect()

@@ -205,6 +205,33 @@ fn lead_in_starts_at_rest() {
 }
 
 #[test]
+fn heading_alignment_faces_the_rest_pose_and_keeps_relative_motion() {
+    let sk = chain_skeleton();
+    let names: Vec<String> = sk.bones.iter().map(|b| b.name.clone()).collect();
+    // Facing backwards (yaw 180° plus a forward lean), 1 m to the side, then walking.
+    let yaw = UnitQuaternion::from_axis_angle(&Vec3::y_axis(), 2.9);
+    let lean = UnitQuaternion::from_axis_angle(&Vec3::x_axis(), 0.3);
+    let bend = UnitQuaternion::from_axis_angle(&Vec3::z_axis(), 0.7);
+    let p0 = Pose { rotations: vec![yaw * lean, yaw * bend, yaw, yaw], root_translation: Vec3::new(1.0, 0.1, -2.0) };
+    let p1 = Pose { rotations: p0.rotations.clone(), root_translation: Vec3::new(1.3, 0.1, -2.4) };
+    let m = Motion::from_poses("m", 30.0, names, &[p0, p1]);
+    let a = m.aligned_to_rest_heading();
+    let (a0, a1) = (a.pose(0).unwrap(), a.pose(1).unwrap());
+    // The first frame's root keeps its lean but no yaw, and stands at the rest position.
+    assert!(a0.rotations[0].angle_to(&lean) < 1e-6, "{:?}", a0.rotations[0]);
+    assert!(a0.root_translation.x.abs() < 1e-6 && a0.root_translation.z.abs() < 1e-6);
+    assert!((a0.root_translation.y - 0.1).abs() < 1e-6);
+    // Relative motion survives: the step length and the bones' relative rotations.
+    let step = (a1.root_translation - a0.root_translation).norm();
+    assert!((step - 0.5).abs() < 1e-6, "{step}");
+    let rel = |p: &Pose| p.rotations[0].inverse() * p.rotations[1];
+    assert!(rel(&a0).angle_to(&rel(&m.pose(0).unwrap())) < 1e-6);
+    // Already aligned: nothing changes.
+    let again = a.aligned_to_rest_heading();
+    assert!(again.pose(1).unwrap().rotations[0].angle_to(&a1.rotations[0]) < 1e-6);
+}
+
+#[test]
 fn config_refuses_unknown_keys_naming_them() {
     let base = "[scene]\ngarment = \"g\"\nbody = \"b\"\n[scene.motions]\ntrain = [\"a\"]\n";
     SceneConfig::parse(base, Path::new("c.toml")).unwrap();

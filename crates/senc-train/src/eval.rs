@@ -68,6 +68,12 @@ impl Method {
         Ok(Self { label, checkpoint: checkpoint.to_path_buf(), config, garment: None })
     }
 
+    /// The reference solver on the config `config`'s scene (no checkpoint; used by
+    /// `xtask simulate --solver`).
+    pub fn solver(config: &Path) -> Self {
+        Self { label: "solver".into(), checkpoint: PathBuf::new(), config: config.to_path_buf(), garment: None }
+    }
+
     /// The same method run on another garment asset (see [`Garment::load_unseen`]).
     pub fn with_garment(mut self, asset: &Path) -> Self {
         self.garment = Some(asset.to_path_buf());
@@ -399,4 +405,109 @@ pub fn svg_plot(curve: &[CurvePoint]) -> String {
         );
     }
     s + "</svg>\n"
+}
+
+/// One predictor's mean energy above the converged reference over the probe states.
+#[derive(Debug, Clone, Serialize)]
+pub struct ProbeRow {
+    /// "free flight", "skinned", "solver N it" or "network".
+    pub predictor: String,
+    /// Mean `E(x) − E(x*)`, J.
+    pub gap: f64,
+    /// Mean energy per term, J.
+    pub terms: Vec<(String, f64)>,
+}
+
+/// One-step probe on the training distribution: from `states` skinned states `(x[t−1],
+/// x[t])` of the config's training motions (the scene's material, gravity, no random
+/// force), the energy of the next frame predicted by free flight `2x[t] − x[t−1] + Δt² g`,
+/// by the skinned garment, by the network of `checkpoint` (if given) and by the reference
+/// solver at `budgets`, each as a gap above the converged solve (`converged` iterations).
+///
+/// A network that has learned anything beats free flight here; the converged solver's
+/// terms say which energies a good step still pays. Phase-1 energy (no self-collision).
+pub fn one_step_probe(
+    config: &Path,
+    checkpoint: Option<&Path>,
+    states: usize,
+    budgets: &[usize],
+    converged: usize,
+) -> Result<(Vec<ProbeRow>, ProbeRow), TrainError> {
+    let cfg = RunConfig::read(config)?;
+    let g = Garment::load(&first_scene(&cfg)?, cfg.train.body_margin)?;
+    let model = checkpoint.map(|c| Model::load(c, &Device::flex())).transpose()?;
+    let material = scene_material(&g)?;
+    let ext = g.scene.config.external_force.acceleration;
+    let mut ec = cfg.energy_for(1, material, ext);
+    ec.gravity = g.scene.config.external_force.gravity;
+    ec.dt = g.scene.dt();
+    ec.self_collision.open_holes = g.open_holes.clone();
+    let em = EnergyModel::new(&g.rest, &ec, Some(&g.proxy_mesh))?;
+    let accel = Vec3::from(ec.gravity) + Vec3::from(ext);
+    let dt = ec.dt;
+    let mat = senc_model::Material {
+        mu: material.mu,
+        lambda: material.lambda,
+        bending: material.bending_stiffness,
+        density: material.density,
+    };
+    let mut names: Vec<String> = vec!["free flight".into(), "skinned".into()];
+    names.extend(budgets.iter().map(|b| format!("solver {b} it")));
+    if model.is_some() {
+        names.push("network".into());
+    }
+    let mut rows: Vec<ProbeRow> =
+        names.into_iter().map(|predictor| ProbeRow { predictor, gap: 0.0, terms: Vec::new() }).collect();
+    let mut reference =
+        ProbeRow { predictor: format!("solver {converged} it (reference)"), gap: 0.0, terms: Vec::new() };
+    let add = |row: &mut ProbeRow, b: &senc_energy::Breakdown, e_star: f64| {
+        row.gap += b.total - e_star;
+        for (k, (name, v)) in b.terms.iter().enumerate() {
+            match row.terms.get_mut(k) {
+                Some(t) => t.1 += v,
+                None => row.terms.push((name.to_string(), *v)),
+            }
+        }
+    };
+    let motions: Vec<_> = g.scene.train.iter().filter(|m| m.n_frames() >= 4).collect();
+    if motions.is_empty() {
+        return Err(TrainError::Invalid(format!("garment {}: no training motion has 4 frames", g.name())));
+    }
+    let k = states.max(1);
+    for i in 0..k {
+        let motion = motions[i % motions.len()];
+        let f = 1 + (i / motions.len() * 7919 + 13 * i) % (motion.n_frames() - 2);
+        let (prev, curr, skinned) =
+            (g.skinned_at(motion, f - 1)?, g.skinned_at(motion, f)?, g.skinned_at(motion, f + 1)?);
+        let (bt, bn) = (g.body_at(motion, f)?, g.body_at(motion, f + 1)?);
+        let fe = em.frame(&curr, &prev, Some((&bt, &bn)))?;
+        let flight: Vec<Vec3> = curr.iter().zip(&prev).map(|(c, p)| c * 2.0 - p + accel * dt * dt).collect();
+        let (x_star, _) = solve(&fe, &flight, &SolverOptions { max_iterations: converged, ..Default::default() })?;
+        let b_star = fe.evaluate(&x_star, None)?;
+        add(&mut reference, &b_star, 0.0);
+        let mut answers = vec![flight.clone(), skinned];
+        for &b in budgets {
+            answers.push(solve(&fe, &flight, &SolverOptions { max_iterations: b, ..Default::default() })?.0);
+        }
+        if let Some(m) = &model {
+            let frame = FrameState {
+                rest: &g.rest,
+                prev: &prev,
+                curr: &curr,
+                material: mat,
+                accel,
+                body: Some(BodyState { faces: g.body_faces(), curr: &bt, next: &bn }),
+            };
+            answers.push(m.step(&frame)?);
+        }
+        for (row, x) in rows.iter_mut().zip(&answers) {
+            add(row, &fe.evaluate(x, None)?, b_star.total);
+        }
+    }
+    let n = k as f64;
+    for r in rows.iter_mut().chain(std::iter::once(&mut reference)) {
+        r.gap /= n;
+        r.terms.iter_mut().for_each(|t| t.1 /= n);
+    }
+    Ok((rows, reference))
 }

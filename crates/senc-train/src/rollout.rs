@@ -73,3 +73,45 @@ pub fn rollout(
     }
     Ok(Rollout { cloth, body, infer_seconds: infer, steps: n })
 }
+
+/// Simulates `frames` frames of `motion` with the reference solver instead of a network:
+/// each frame minimises the incremental potential `E(x[t+1])` of `energy` (Newton, at most
+/// `iterations` iterations, started from the inertial target `2x[t] − x[t−1]`). The energy's
+/// `dt`, gravity and open holes are taken from the garment's scene; `energy.material` and
+/// `energy.external_acceleration` are used as given.
+///
+/// This is the classical simulation the network is trained to imitate: if it does not keep
+/// the garment on the body, no amount of training will.
+pub fn solver_rollout(
+    g: &Garment,
+    motion: &Motion,
+    frames: usize,
+    energy: &senc_energy::EnergyConfig,
+    iterations: usize,
+) -> Result<Rollout, TrainError> {
+    let mut ec = energy.clone();
+    ec.dt = g.scene.dt();
+    ec.gravity = g.scene.config.external_force.gravity;
+    ec.self_collision.open_holes = g.open_holes.clone();
+    let em = senc_energy::EnergyModel::new(&g.rest, &ec, Some(&g.proxy_mesh))?;
+    let opts = senc_energy::SolverOptions { max_iterations: iterations.max(1), ..Default::default() };
+    let n = frames.min(motion.n_frames().saturating_sub(1));
+    let x0 = g.skinned_at(motion, 0)?;
+    let mut cloth = vec![x0.clone()];
+    let mut body = vec![g.body_at(motion, 0)?];
+    let mut prev = x0.clone();
+    let mut curr = x0;
+    let mut secs = 0.0;
+    for f in 0..n {
+        let b_next = g.body_at(motion, f + 1)?;
+        let t0 = Instant::now();
+        let fe = em.frame(&curr, &prev, Some((&body[f], &b_next)))?;
+        let start: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| curr.clone());
+        let (next, _) = senc_energy::solve(&fe, &start, &opts)?;
+        secs += t0.elapsed().as_secs_f64();
+        prev = std::mem::replace(&mut curr, next);
+        cloth.push(curr.clone());
+        body.push(b_next);
+    }
+    Ok(Rollout { cloth, body, infer_seconds: secs, steps: n })
+}
