@@ -492,6 +492,10 @@ pub struct SelfIntersector {
     /// Per slot: the face's vertex ids and group (0 = none).
     slot_faces: Vec<[u32; 3]>,
     slot_groups: Vec<u32>,
+    /// Per node: the group shared by all its faces when that is nonzero, else 0. A node
+    /// with a group is never traversed within itself, nor against a node of the same group
+    /// (every pair there is skipped by group anyway).
+    node_groups: Vec<u32>,
     /// Per vertex: [`RING_CLOSED`], [`RING_OPEN`] or [`RING_OTHER`].
     ring_kind: Vec<u8>,
     /// Per node: its range in `patch_edges` when its faces form a topological disk of at
@@ -539,6 +543,9 @@ impl SelfIntersector {
                 mesh,
                 centroids: &centroids,
                 mark: vec![u32::MAX; n],
+                queued: vec![u32::MAX; n],
+                sorted: Vec::new(),
+                heap: std::collections::BinaryHeap::new(),
                 strays: [Vec::new(), Vec::new()],
                 notches: [Vec::new(), Vec::new()],
             };
@@ -554,6 +561,7 @@ impl SelfIntersector {
         let (patch_ranges, patch_edges) = disk_patches(mesh, &nodes, &order, &slot_of, &ring_kind);
         Self {
             slot_groups: vec![0; n],
+            node_groups: vec![0; nodes.len()],
             ring_kind,
             patch_ranges,
             patch_edges,
@@ -580,6 +588,7 @@ impl SelfIntersector {
     pub fn with_groups(mut self, groups: Vec<u32>) -> Self {
         if groups.len() == self.faces.len() {
             self.slot_groups = self.order.iter().map(|&f| groups[f as usize]).collect();
+            self.node_groups = node_groups(&self.nodes, &self.slot_groups);
         }
         self.groups = groups;
         self
@@ -597,21 +606,7 @@ impl SelfIntersector {
             *self = fresh;
         }
         self.refit(mesh);
-        let ctx = Traversal {
-            mesh,
-            nodes: &self.nodes,
-            order: &self.order,
-            slot_faces: &self.slot_faces,
-            slot_groups: &self.slot_groups,
-            lanes: &self.lanes,
-            planes: &self.planes,
-            rings: &self.rings,
-            slot_of: &self.slot_of,
-            ring_kind: &self.ring_kind,
-            patch_ranges: &self.patch_ranges,
-            patch_edges: &self.patch_edges,
-            normals: &self.node_normals,
-        };
+        let ctx = self.traversal(mesh);
         let tasks = ctx.tasks(64);
         let acc = tasks
             .par_iter()
@@ -628,6 +623,26 @@ impl SelfIntersector {
                 a
             });
         assemble(mesh, acc.results, acc.candidates)
+    }
+
+    /// The traversal over this tree for `mesh` (refit to its positions).
+    fn traversal<'a>(&'a self, mesh: &'a TriMesh) -> Traversal<'a> {
+        Traversal {
+            mesh,
+            nodes: &self.nodes,
+            order: &self.order,
+            slot_faces: &self.slot_faces,
+            slot_groups: &self.slot_groups,
+            node_groups: &self.node_groups,
+            lanes: &self.lanes,
+            planes: &self.planes,
+            rings: &self.rings,
+            slot_of: &self.slot_of,
+            ring_kind: &self.ring_kind,
+            patch_ranges: &self.patch_ranges,
+            patch_edges: &self.patch_edges,
+            normals: &self.node_normals,
+        }
     }
 
     /// Face boxes and planes (slot order), node boxes (bottom-up) and vertex rings for the
@@ -691,14 +706,22 @@ struct Builder<'a> {
     centroids: &'a [Vec3],
     /// Per face: `2 node + side` of the split being made.
     mark: Vec<u32>,
+    /// Per face: the node whose growing split has queued it.
+    queued: Vec<u32>,
+    sorted: Vec<u32>,
+    heap: std::collections::BinaryHeap<std::cmp::Reverse<(u64, u32)>>,
     strays: [Vec<usize>; 2],
     notches: [Vec<usize>; 2],
 }
 
 impl Builder<'_> {
-    /// Builds the subtree over `order[lo..hi]` (median split of centroids along the longest
-    /// axis, leaf sizes a multiple of [`LEAF_SIZE`] except the last); returns its node index.
-    /// Parents come before their children in `nodes`.
+    /// Builds the subtree over `order[lo..hi]` (split in two halves along the longest axis of
+    /// the centroids, the first half grown across edges from the smallest centroid so that
+    /// it stays connected, see [`Self::grow_split`]; leaf sizes a multiple of [`LEAF_SIZE`]
+    /// except the last); returns its node index. Parents come before their children in
+    /// `nodes`. Connected halves make more nodes topological disks that the traversal can
+    /// skip whole (on the garment benchmark, 87% of the nodes of 17 to 1024 faces instead
+    /// of 70% with a plain median split).
     ///
     /// After the split, faces with no edge neighbour on their own side ("strays", typical
     /// where the split line zigzags through a triangulated grid) are swapped pairwise with
@@ -726,14 +749,71 @@ impl Builder<'_> {
         };
         let n_leaves = (hi - lo).div_ceil(LEAF_SIZE);
         let mid = lo + (n_leaves / 2) * LEAF_SIZE;
-        order[lo..hi].select_nth_unstable_by(mid - lo, |&a, &b| {
-            centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]).then(a.cmp(&b))
-        });
+        self.grow_split(order, lo, mid, hi, axis, id as u32);
         self.swap_strays(order, lo, mid, hi, id as u32);
         let l = self.node(nodes, order, lo, mid);
         let r = self.node(nodes, order, mid, hi);
         nodes[id] = Node { bbox: Aabb3::EMPTY, a: l, b: r, leaf: false };
         id as u32
+    }
+
+    /// Splits `order[lo..hi]` into a first part of `mid − lo` faces grown face by face
+    /// across edges from the face with the smallest centroid coordinate along `axis`, always
+    /// taking the queued face that is smallest along `axis` (so the cut follows the median
+    /// plane, as in a median split, while the first part stays edge-connected where the
+    /// faces allow); when the queue runs dry (another component), growth restarts from the
+    /// smallest face not taken.
+    fn grow_split(&mut self, order: &mut [u32], lo: usize, mid: usize, hi: usize, axis: usize, id: u32) {
+        let topo = self.mesh.topology();
+        let (face_edges, edge_faces) = (topo.face_edges(), topo.edge_faces());
+        let centroids = self.centroids;
+        let key = |f: u32| {
+            let b = centroids[f as usize][axis].to_bits();
+            (if b >> 63 == 1 { !b } else { b | (1 << 63) }, f)
+        };
+        let (unassigned, left) = (2 * id + 1, 2 * id);
+        self.sorted.clear();
+        self.sorted.extend_from_slice(&order[lo..hi]);
+        self.sorted.sort_unstable_by_key(|&f| key(f));
+        for &f in &self.sorted {
+            self.mark[f as usize] = unassigned;
+        }
+        self.heap.clear();
+        let (mut taken, mut next_seed) = (0, 0);
+        while taken < mid - lo {
+            let f = match self.heap.pop() {
+                Some(std::cmp::Reverse((_, f))) => f,
+                None => {
+                    while self.mark[self.sorted[next_seed] as usize] != unassigned {
+                        next_seed += 1;
+                    }
+                    self.sorted[next_seed]
+                }
+            };
+            if self.mark[f as usize] != unassigned {
+                continue;
+            }
+            self.mark[f as usize] = left;
+            taken += 1;
+            for e in face_edges[f as usize] {
+                let [g0, g1] = edge_faces[e as usize];
+                let g = if g0 == f { g1 } else { g0 };
+                if g != NO_FACE && self.mark[g as usize] == unassigned && self.queued[g as usize] != id {
+                    self.queued[g as usize] = id;
+                    self.heap.push(std::cmp::Reverse(key(g)));
+                }
+            }
+        }
+        let (mut a, mut b) = (lo, mid);
+        for &f in &self.sorted {
+            if self.mark[f as usize] == left {
+                order[a] = f;
+                a += 1;
+            } else {
+                order[b] = f;
+                b += 1;
+            }
+        }
     }
 
     fn swap_strays(&mut self, order: &mut [u32], lo: usize, mid: usize, hi: usize, id: u32) {
@@ -789,6 +869,31 @@ impl Builder<'_> {
     }
 }
 
+/// Per node, the nonzero group shared by all its faces, or 0 (see
+/// [`SelfIntersector::with_groups`]). Parents come before children in `nodes`.
+fn node_groups(nodes: &[Node], slot_groups: &[u32]) -> Vec<u32> {
+    let mut out = vec![0u32; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let nd = nodes[i];
+        out[i] = if nd.leaf {
+            let g = &slot_groups[nd.a as usize..nd.b as usize];
+            if g.iter().all(|&x| x == g[0]) {
+                g[0]
+            } else {
+                0
+            }
+        } else {
+            let (ga, gb) = (out[nd.a as usize], out[nd.b as usize]);
+            if ga == gb {
+                ga
+            } else {
+                0
+            }
+        };
+    }
+    out
+}
+
 /// A unit of traversal work: the face pairs within one subtree, or between two subtrees
 /// whose boxes overlap.
 #[derive(Debug, Clone, Copy)]
@@ -811,6 +916,7 @@ struct Traversal<'a> {
     order: &'a [u32],
     slot_faces: &'a [[u32; 3]],
     slot_groups: &'a [u32],
+    node_groups: &'a [u32],
     lanes: &'a [LeafBoxes],
     planes: &'a [FacePlane],
     rings: &'a [AtomicU8],
@@ -842,6 +948,13 @@ impl Traversal<'_> {
         }
     }
 
+    /// Whether all faces of nodes `x` and `y` have one nonzero group.
+    #[inline]
+    fn same_group(&self, x: u32, y: u32) -> bool {
+        let g = self.node_groups[x as usize];
+        g != 0 && g == self.node_groups[y as usize]
+    }
+
     /// Whether node `n`'s faces certainly cannot cross or touch each other (beyond the edges
     /// and vertices they share), so the node's whole self-traversal can be skipped.
     ///
@@ -867,8 +980,13 @@ impl Traversal<'_> {
             return false;
         };
         let helper = if d.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
-        let u = d.cross(&helper).normalize();
-        let w = d.cross(&u);
+        let u0 = d.cross(&helper).normalize();
+        let w0 = d.cross(&u0);
+        // The sweep below runs along `u`: turned 45° from the frame built on a coordinate
+        // axis, since the tree's splits are planes normal to coordinate axes, and a patch
+        // side along one of them would put all its edges into one stretch of the sweep.
+        let u = (u0 + w0) * std::f64::consts::FRAC_1_SQRT_2;
+        let w = (w0 - u0) * std::f64::consts::FRAC_1_SQRT_2;
         let bb = self.nodes[n as usize].bbox;
         let lo = Vec3::new(bb.lo[0], bb.lo[1], bb.lo[2]);
         let hi = Vec3::new(bb.hi[0], bb.hi[1], bb.hi[2]);
@@ -932,6 +1050,9 @@ impl Traversal<'_> {
         match t {
             Task::Within(n) => {
                 let nd = nodes[n as usize];
+                if self.node_groups[n as usize] != 0 {
+                    return true;
+                }
                 if nd.leaf {
                     out.push(t);
                     return false;
@@ -948,6 +1069,9 @@ impl Traversal<'_> {
             }
             Task::Between(x, y) => {
                 let (nx, ny) = (nodes[x as usize], nodes[y as usize]);
+                if self.same_group(x, y) {
+                    return true;
+                }
                 if nx.leaf && ny.leaf {
                     out.push(t);
                     return false;
@@ -975,6 +1099,9 @@ impl Traversal<'_> {
             match t {
                 Task::Within(n) => {
                     let nd = nodes[n as usize];
+                    if self.node_groups[n as usize] != 0 {
+                        continue;
+                    }
                     if nd.leaf {
                         self.leaf_within(nd.a, nd.b, acc);
                     } else if !self.patch_is_embedded(n, &mut acc.segs) {
@@ -987,6 +1114,9 @@ impl Traversal<'_> {
                 }
                 Task::Between(x, y) => {
                     let (nx, ny) = (nodes[x as usize], nodes[y as usize]);
+                    if self.same_group(x, y) {
+                        continue;
+                    }
                     if nx.leaf && ny.leaf {
                         self.leaf_between(nx.a, nx.b, ny.a, acc);
                         continue;
@@ -1788,21 +1918,7 @@ mod tests {
     /// Internal nodes whose self-traversal [`Traversal::patch_is_embedded`] skips, for the
     /// positions `ix` was last refit to.
     fn skipped_nodes(ix: &SelfIntersector, mesh: &TriMesh) -> Vec<u32> {
-        let ctx = Traversal {
-            mesh,
-            nodes: &ix.nodes,
-            order: &ix.order,
-            slot_faces: &ix.slot_faces,
-            slot_groups: &ix.slot_groups,
-            lanes: &ix.lanes,
-            planes: &ix.planes,
-            rings: &ix.rings,
-            slot_of: &ix.slot_of,
-            ring_kind: &ix.ring_kind,
-            patch_ranges: &ix.patch_ranges,
-            patch_edges: &ix.patch_edges,
-            normals: &ix.node_normals,
-        };
+        let ctx = ix.traversal(mesh);
         let mut segs = Vec::new();
         (0..ix.nodes.len() as u32)
             .filter(|&n| !ix.nodes[n as usize].leaf && ctx.patch_is_embedded(n, &mut segs))
@@ -1873,6 +1989,62 @@ mod tests {
         let folded = shapes::folded_sheet(1.0, 24).unwrap();
         let found = self_intersections(&folded);
         assert_eq!(found.segments, brute_force(&folded).segments);
+    }
+
+    /// [`brute_force`] without the pairs of faces that share a nonzero group.
+    fn brute_force_grouped(mesh: &TriMesh, groups: &[u32]) -> SelfIntersections {
+        let n = mesh.n_faces();
+        let mut results = Vec::new();
+        for f in 0..n {
+            let [a, b, c] = mesh.triangle(f);
+            let bf = Aabb3::of_triangle(a, b, c);
+            for g in f + 1..n {
+                let [a, b, c] = mesh.triangle(g);
+                if (groups[f] == 0 || groups[f] != groups[g]) && bf.overlaps(&Aabb3::of_triangle(a, b, c)) {
+                    results.extend(test_pair(mesh, f as u32, g as u32));
+                }
+            }
+        }
+        assemble(mesh, results, 0)
+    }
+
+    #[test]
+    fn nodes_of_one_fan_are_skipped_but_fans_still_meet_other_faces() {
+        // An open tube closed by two fans, each pierced by a small box: the fans' own pairs
+        // are skipped whole (nodes of one group), the fans' crossings with the boxes are not.
+        let tube = shapes::tube(0.5, 1.0, 48, 12, shapes::Caps::Open).unwrap();
+        let top = shapes::grid_box(Vec3::new(-0.2, -0.1, 0.8), Vec3::new(0.1, 0.2, 1.2), 3).unwrap();
+        let bottom = shapes::grid_box(Vec3::new(0.05, -0.25, -0.15), Vec3::new(0.3, 0.0, 0.1), 3).unwrap();
+        let m = shapes::merge(&shapes::merge(&tube, &top).unwrap(), &bottom).unwrap();
+        let closure = crate::close_holes(&m, &crate::HoleSelection::All).unwrap();
+        let (closed, groups) = (closure.mesh(), closure.fan_groups());
+        let mut ix = SelfIntersector::new(closed).with_groups(groups.clone());
+        let found = ix.find(closed);
+        let grouped_nodes = ix.node_groups.iter().filter(|&&g| g != 0).count();
+        assert!(grouped_nodes >= 4, "{grouped_nodes} nodes lie in one fan");
+        let slow = brute_force_grouped(closed, &groups);
+        assert_eq!(found.points, slow.points);
+        assert_eq!(found.segments, slow.segments);
+        let fan_hits =
+            |group: u32| found.segments.iter().filter(|s| s.faces.iter().any(|&f| groups[f as usize] == group)).count();
+        assert!(fan_hits(1) >= 4 && fan_hits(2) >= 4, "{} {}", fan_hits(1), fan_hits(2));
+    }
+
+    #[test]
+    fn grown_splits_make_most_nodes_disks() {
+        // A sleeve pushed into a torso (grid-made): with halves grown across edges, 85% of
+        // the nodes large enough to be tried are topological disks (79% with plain median
+        // splits).
+        let m = shapes::fixture("sleeve_torso_grid").unwrap();
+        let ix = SelfIntersector::new(&m);
+        let mut sizes = vec![0u32; ix.nodes.len()];
+        for i in (0..ix.nodes.len()).rev() {
+            let nd = ix.nodes[i];
+            sizes[i] = if nd.leaf { nd.b - nd.a } else { sizes[nd.a as usize] + sizes[nd.b as usize] };
+        }
+        let tried: Vec<usize> = (0..ix.nodes.len()).filter(|&n| sizes[n] >= MIN_PATCH).collect();
+        let disks = tried.iter().filter(|&&n| ix.patch_ranges[n][0] < ix.patch_ranges[n][1]).count();
+        assert!(disks * 100 >= tried.len() * 83, "{disks} of {} nodes are disks", tried.len());
     }
 
     #[test]
