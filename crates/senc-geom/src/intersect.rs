@@ -28,6 +28,7 @@ use std::cmp::Ordering;
 use std::sync::atomic::{AtomicU8, Ordering as AtomicOrdering};
 
 use rayon::prelude::*;
+use wide::{f32x4, CmpLe};
 
 use crate::mesh::TriMesh;
 use crate::predicates::{orient3d_sos, orient3d_value};
@@ -155,20 +156,15 @@ struct LeafBoxes {
 impl LeafBoxes {
     const EMPTY: LeafBoxes = LeafBoxes { lo: [[f32::INFINITY; LEAF_SIZE]; 3], hi: [[f32::NEG_INFINITY; LEAF_SIZE]; 3] };
 
-    /// Bit `k` set when lane `k`'s box overlaps lane `lane`'s box of `other`. Written lane-
-    /// parallel (no early exit) so the compiler can use 4-wide comparisons.
+    /// Bit `k` set when lane `k`'s box overlaps lane `lane`'s box of `other`: six 4-wide
+    /// comparisons (`wide`, SSE on x86-64) and one move-mask.
     #[inline(always)]
     fn overlap_mask(&self, other: &LeafBoxes, lane: usize) -> u32 {
-        let mut ok = [0u32; LEAF_SIZE];
-        for (k, o) in ok.iter_mut().enumerate() {
-            *o = ((other.lo[0][lane] <= self.hi[0][k]) as u32)
-                & ((self.lo[0][k] <= other.hi[0][lane]) as u32)
-                & ((other.lo[1][lane] <= self.hi[1][k]) as u32)
-                & ((self.lo[1][k] <= other.hi[1][lane]) as u32)
-                & ((other.lo[2][lane] <= self.hi[2][k]) as u32)
-                & ((self.lo[2][k] <= other.hi[2][lane]) as u32);
-        }
-        ok.iter().enumerate().fold(0, |m, (k, &o)| m | (o << k))
+        let ok = |ax: usize| {
+            let (lo, hi) = (f32x4::new(self.lo[ax]), f32x4::new(self.hi[ax]));
+            f32x4::splat(other.lo[ax][lane]).cmp_le(hi) & lo.cmp_le(f32x4::splat(other.hi[ax][lane]))
+        };
+        (ok(0) & ok(1) & ok(2)).move_mask() as u32
     }
 }
 
