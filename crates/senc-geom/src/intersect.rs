@@ -28,7 +28,7 @@ use std::cmp::Ordering;
 use std::sync::atomic::{AtomicU8, Ordering as AtomicOrdering};
 
 use rayon::prelude::*;
-use wide::{f32x4, CmpLe};
+use wide::{f32x4, i32x4, CmpEq, CmpLe};
 
 use crate::mesh::TriMesh;
 use crate::predicates::{orient3d_sos, orient3d_value};
@@ -101,6 +101,27 @@ impl SelfIntersections {
 /// a leaf pair are still each checked against their boxes before any other work.
 const LEAF_SIZE: usize = 4;
 
+/// The smaller of two numbers that are not NaN (one `minsd`; `f64::min` also handles NaN).
+/// Positions are finite (checked by [`TriMesh`]), and so are the bounds built from them.
+#[inline(always)]
+fn lesser(a: f64, b: f64) -> f64 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The larger of two numbers that are not NaN (see [`lesser`]).
+#[inline(always)]
+fn greater(a: f64, b: f64) -> f64 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
 /// Axis-aligned box, closed (touching boxes overlap).
 #[derive(Debug, Clone, Copy)]
 struct Aabb3 {
@@ -113,9 +134,9 @@ impl Aabb3 {
 
     #[inline]
     fn of_triangle(a: Vec3, b: Vec3, c: Vec3) -> Self {
-        let lo = a.inf(&b).inf(&c);
-        let hi = a.sup(&b).sup(&c);
-        Aabb3 { lo: [lo.x, lo.y, lo.z], hi: [hi.x, hi.y, hi.z] }
+        let lo = |ax: usize| lesser(lesser(a[ax], b[ax]), c[ax]);
+        let hi = |ax: usize| greater(greater(a[ax], b[ax]), c[ax]);
+        Aabb3 { lo: [lo(0), lo(1), lo(2)], hi: [hi(0), hi(1), hi(2)] }
     }
 
     #[inline]
@@ -131,8 +152,8 @@ impl Aabb3 {
     #[inline]
     fn union(&self, o: &Aabb3) -> Aabb3 {
         Aabb3 {
-            lo: [self.lo[0].min(o.lo[0]), self.lo[1].min(o.lo[1]), self.lo[2].min(o.lo[2])],
-            hi: [self.hi[0].max(o.hi[0]), self.hi[1].max(o.hi[1]), self.hi[2].max(o.hi[2])],
+            lo: [lesser(self.lo[0], o.lo[0]), lesser(self.lo[1], o.lo[1]), lesser(self.lo[2], o.lo[2])],
+            hi: [greater(self.hi[0], o.hi[0]), greater(self.hi[1], o.hi[1]), greater(self.hi[2], o.hi[2])],
         }
     }
 
@@ -165,6 +186,56 @@ impl LeafBoxes {
             f32x4::splat(other.lo[ax][lane]).cmp_le(hi) & lo.cmp_le(f32x4::splat(other.hi[ax][lane]))
         };
         (ok(0) & ok(1) & ok(2)).move_mask() as u32
+    }
+}
+
+/// The vertex ids and groups of one leaf's (up to [`LEAF_SIZE`]) faces, one array per
+/// corner, for classifying one face against a whole leaf at once. Ids are compared as bit
+/// patterns (`u32` stored as `i32`). Unused lanes hold copies of no face (they are never in
+/// a box mask).
+#[derive(Debug, Clone, Copy)]
+struct LeafVerts {
+    v: [[i32; LEAF_SIZE]; 3],
+    g: [i32; LEAF_SIZE],
+}
+
+impl LeafVerts {
+    /// Per leaf group of `slot_faces` / `slot_groups`.
+    fn of_slots(slot_faces: &[[u32; 3]], slot_groups: &[u32]) -> Vec<LeafVerts> {
+        slot_faces
+            .chunks(LEAF_SIZE)
+            .zip(slot_groups.chunks(LEAF_SIZE))
+            .map(|(fs, gs)| {
+                let mut lv = LeafVerts { v: [[-1; LEAF_SIZE]; 3], g: [0; LEAF_SIZE] };
+                for (k, (f, &g)) in fs.iter().zip(gs).enumerate() {
+                    for (c, &v) in f.iter().enumerate() {
+                        lv.v[c][k] = v as i32;
+                    }
+                    lv.g[k] = g as i32;
+                }
+                lv
+            })
+            .collect()
+    }
+
+    /// For face `f` (vertex ids) of group `g`: the masks of lanes that share no vertex with
+    /// it and of lanes that share exactly one, both without the lanes of the same nonzero
+    /// group (pairs sharing an edge or in one group are never tested).
+    #[inline(always)]
+    fn classify(&self, f: [u32; 3], g: u32) -> (u32, u32) {
+        let corners = [i32x4::new(self.v[0]), i32x4::new(self.v[1]), i32x4::new(self.v[2])];
+        // Minus the number of shared vertices per lane (an equal comparison is −1).
+        let mut neg_shared = i32x4::splat(0);
+        for v in f {
+            let v = i32x4::splat(v as i32);
+            for c in corners {
+                neg_shared += v.cmp_eq(c);
+            }
+        }
+        let same_group = if g == 0 { 0 } else { i32x4::splat(g as i32).cmp_eq(i32x4::new(self.g)).move_mask() as u32 };
+        let none = neg_shared.cmp_eq(i32x4::splat(0)).move_mask() as u32;
+        let one = neg_shared.cmp_eq(i32x4::splat(-1)).move_mask() as u32;
+        (none & !same_group, one & !same_group)
     }
 }
 
@@ -233,16 +304,16 @@ impl NormalBox {
             return;
         };
         for ax in 0..3 {
-            self.lo[ax] = self.lo[ax].min(unit[ax]);
-            self.hi[ax] = self.hi[ax].max(unit[ax]);
+            self.lo[ax] = lesser(self.lo[ax], unit[ax]);
+            self.hi[ax] = greater(self.hi[ax], unit[ax]);
         }
     }
 
     #[inline]
     fn union(&self, o: &NormalBox) -> NormalBox {
         NormalBox {
-            lo: [self.lo[0].min(o.lo[0]), self.lo[1].min(o.lo[1]), self.lo[2].min(o.lo[2])],
-            hi: [self.hi[0].max(o.hi[0]), self.hi[1].max(o.hi[1]), self.hi[2].max(o.hi[2])],
+            lo: [lesser(self.lo[0], o.lo[0]), lesser(self.lo[1], o.lo[1]), lesser(self.lo[2], o.lo[2])],
+            hi: [greater(self.hi[0], o.hi[0]), greater(self.hi[1], o.hi[1]), greater(self.hi[2], o.hi[2])],
         }
     }
 
@@ -503,6 +574,8 @@ pub struct SelfIntersector {
     boxes: Vec<Aabb3>,
     /// Per group of [`LEAF_SIZE`] slots (every leaf is one such group).
     lanes: Vec<LeafBoxes>,
+    /// Per group of [`LEAF_SIZE`] slots: the faces' vertex ids and groups (topology).
+    leaf_verts: Vec<LeafVerts>,
     planes: Vec<FacePlane>,
     /// Per vertex, whether its ring is embedded ([`RING_YES`] / [`RING_NO`]), or
     /// [`RING_UNKNOWN`] until a pair sharing only that vertex asks (computed lazily: most
@@ -552,11 +625,12 @@ impl SelfIntersector {
             slot_of[f as usize] = slot as u32;
         }
         let faces = mesh.faces().to_vec();
-        let slot_faces = order.iter().map(|&f| faces[f as usize]).collect();
+        let slot_faces: Vec<[u32; 3]> = order.iter().map(|&f| faces[f as usize]).collect();
         let ring_kind = ring_kinds(mesh);
         let (patch_ranges, patch_edges) = disk_patches(mesh, &nodes, &order, &slot_of, &ring_kind);
         Self {
             slot_groups: vec![0; n],
+            leaf_verts: LeafVerts::of_slots(&slot_faces, &vec![0; n]),
             node_groups: vec![0; nodes.len()],
             ring_kind,
             patch_ranges,
@@ -584,6 +658,7 @@ impl SelfIntersector {
     pub fn with_groups(mut self, groups: Vec<u32>) -> Self {
         if groups.len() == self.faces.len() {
             self.slot_groups = self.order.iter().map(|&f| groups[f as usize]).collect();
+            self.leaf_verts = LeafVerts::of_slots(&self.slot_faces, &self.slot_groups);
             self.node_groups = node_groups(&self.nodes, &self.slot_groups);
         }
         self.groups = groups;
@@ -631,6 +706,7 @@ impl SelfIntersector {
             slot_groups: &self.slot_groups,
             node_groups: &self.node_groups,
             lanes: &self.lanes,
+            leaf_verts: &self.leaf_verts,
             planes: &self.planes,
             rings: &self.rings,
             slot_of: &self.slot_of,
@@ -914,6 +990,7 @@ struct Traversal<'a> {
     slot_groups: &'a [u32],
     node_groups: &'a [u32],
     lanes: &'a [LeafBoxes],
+    leaf_verts: &'a [LeafVerts],
     planes: &'a [FacePlane],
     rings: &'a [AtomicU8],
     slot_of: &'a [u32],
@@ -1133,16 +1210,13 @@ impl Traversal<'_> {
     /// Face pairs inside the leaf over slots `a..b`.
     #[inline]
     fn leaf_within(&self, a: u32, b: u32, acc: &mut Acc) {
-        let lanes = &self.lanes[a as usize / LEAF_SIZE];
+        let group = a as usize / LEAF_SIZE;
+        let lanes = &self.lanes[group];
         for i in a..b {
             let lane = i as usize % LEAF_SIZE;
             // Lanes after `i` only; empty lanes never overlap.
-            let mut mask = lanes.overlap_mask(lanes, lane) & !((2u32 << lane) - 1);
-            while mask != 0 {
-                let k = mask.trailing_zeros();
-                mask &= mask - 1;
-                self.pair(i, a + k, acc);
-            }
+            let mask = lanes.overlap_mask(lanes, lane) & !((2u32 << lane) - 1);
+            self.pairs(i, a, group, mask, acc);
         }
     }
 
@@ -1150,44 +1224,50 @@ impl Traversal<'_> {
     #[inline]
     fn leaf_between(&self, a: u32, b: u32, c: u32, acc: &mut Acc) {
         let la = &self.lanes[a as usize / LEAF_SIZE];
-        let lc = &self.lanes[c as usize / LEAF_SIZE];
+        let group = c as usize / LEAF_SIZE;
+        let lc = &self.lanes[group];
         for i in a..b {
-            let mut mask = lc.overlap_mask(la, i as usize % LEAF_SIZE);
-            while mask != 0 {
-                let k = mask.trailing_zeros();
-                mask &= mask - 1;
-                self.pair(i, c + k, acc);
-            }
+            let mask = lc.overlap_mask(la, i as usize % LEAF_SIZE);
+            self.pairs(i, c, group, mask, acc);
         }
     }
 
-    /// Face pair in slots `i`, `j` whose boxes overlap: neighbour filters by vertex ids,
-    /// then the pair test.
+    /// The pairs of the face in slot `i` with the lanes in `mask` (boxes overlapping) of the
+    /// leaf group `group` starting at slot `c`: pairs sharing an edge or a nonzero group are
+    /// dropped, pairs sharing one vertex whose ring is embedded too (they cannot cross);
+    /// the rest go to the pair test.
     #[inline(always)]
-    fn pair(&self, i: u32, j: u32, acc: &mut Acc) {
-        let (i, j) = (i as usize, j as usize);
-        let (fa, fb) = (self.slot_faces[i], self.slot_faces[j]);
-        let hit = fa.map(|v| (v == fb[0]) | (v == fb[1]) | (v == fb[2]));
-        let n_shared = hit[0] as u32 + hit[1] as u32 + hit[2] as u32;
-        if n_shared >= 2 {
+    fn pairs(&self, i: u32, c: u32, group: usize, mask: u32, acc: &mut Acc) {
+        if mask == 0 {
             return;
         }
-        let shared = if hit[0] {
-            fa[0]
-        } else if hit[1] {
-            fa[1]
-        } else {
-            fa[2]
-        };
-        let gi = self.slot_groups[i];
-        if gi != 0 && gi == self.slot_groups[j] {
-            return;
+        let fa = self.slot_faces[i as usize];
+        let (none, one) = self.leaf_verts[group].classify(fa, self.slot_groups[i as usize]);
+        let mut m = mask & none;
+        while m != 0 {
+            let k = m.trailing_zeros();
+            m &= m - 1;
+            acc.candidates += 1;
+            self.test(i as usize, (c + k) as usize, acc);
         }
-        if n_shared == 1 && self.ring_embedded(shared) {
-            return;
+        let mut m = mask & one;
+        while m != 0 {
+            let k = m.trailing_zeros();
+            m &= m - 1;
+            let j = (c + k) as usize;
+            let fb = self.slot_faces[j];
+            let shared = if fb.contains(&fa[0]) {
+                fa[0]
+            } else if fb.contains(&fa[1]) {
+                fa[1]
+            } else {
+                fa[2]
+            };
+            if !self.ring_embedded(shared) {
+                acc.candidates += 1;
+                self.test(i as usize, j, acc);
+            }
         }
-        acc.candidates += 1;
-        self.test(i, j, acc);
     }
 
     #[inline(never)]
