@@ -554,8 +554,6 @@ pub struct SelfIntersector {
     nodes: Vec<Node>,
     /// Slot → face.
     order: Vec<u32>,
-    /// Face → slot.
-    slot_of: Vec<u32>,
     /// Per slot: the face's vertex ids and group (0 = none).
     slot_faces: Vec<[u32; 3]>,
     slot_groups: Vec<u32>,
@@ -565,6 +563,10 @@ pub struct SelfIntersector {
     node_groups: Vec<u32>,
     /// Per vertex: [`RING_CLOSED`], [`RING_OPEN`] or [`RING_OTHER`].
     ring_kind: Vec<u8>,
+    /// Per vertex `s`, its ring's wedges `(a, b, slot)` (face `(s, a, b)` in slot `slot`) in
+    /// `ring_links[ring_start[s]..ring_start[s + 1]]` (topology, for [`ring_is_embedded`]).
+    ring_start: Vec<u32>,
+    ring_links: Vec<[u32; 3]>,
     /// Per node: its range in `patch_edges` when its faces form a topological disk of at
     /// least [`MIN_PATCH`] faces (empty otherwise); see [`Traversal::patch_is_embedded`].
     patch_ranges: Vec<[u32; 2]>,
@@ -627,19 +629,21 @@ impl SelfIntersector {
         let faces = mesh.faces().to_vec();
         let slot_faces: Vec<[u32; 3]> = order.iter().map(|&f| faces[f as usize]).collect();
         let ring_kind = ring_kinds(mesh);
+        let (ring_start, ring_links) = ring_links(mesh, |f| slot_of[f as usize]);
         let (patch_ranges, patch_edges) = disk_patches(mesh, &nodes, &order, &slot_of, &ring_kind);
         Self {
             slot_groups: vec![0; n],
             leaf_verts: LeafVerts::of_slots(&slot_faces, &vec![0; n]),
             node_groups: vec![0; nodes.len()],
             ring_kind,
+            ring_start,
+            ring_links,
             patch_ranges,
             patch_edges,
             faces,
             groups: Vec::new(),
             nodes,
             order,
-            slot_of,
             slot_faces,
             boxes: Vec::new(),
             lanes: Vec::new(),
@@ -709,8 +713,9 @@ impl SelfIntersector {
             leaf_verts: &self.leaf_verts,
             planes: &self.planes,
             rings: &self.rings,
-            slot_of: &self.slot_of,
             ring_kind: &self.ring_kind,
+            ring_start: &self.ring_start,
+            ring_links: &self.ring_links,
             patch_ranges: &self.patch_ranges,
             patch_edges: &self.patch_edges,
             normals: &self.node_normals,
@@ -993,8 +998,9 @@ struct Traversal<'a> {
     leaf_verts: &'a [LeafVerts],
     planes: &'a [FacePlane],
     rings: &'a [AtomicU8],
-    slot_of: &'a [u32],
     ring_kind: &'a [u8],
+    ring_start: &'a [u32],
+    ring_links: &'a [[u32; 3]],
     patch_ranges: &'a [[u32; 2]],
     patch_edges: &'a [[u32; 2]],
     normals: &'a [NormalBox],
@@ -1011,9 +1017,11 @@ impl Traversal<'_> {
             RING_YES => true,
             RING_NO => false,
             _ => {
-                let (planes, slot_of) = (self.planes, self.slot_of);
-                let r = ring_is_embedded(self.mesh, s, self.ring_kind[s as usize], |f| {
-                    planes[slot_of[f as usize] as usize].n
+                let planes = self.planes;
+                let links =
+                    &self.ring_links[self.ring_start[s as usize] as usize..self.ring_start[s as usize + 1] as usize];
+                let r = ring_is_embedded(self.mesh.positions(), s, self.ring_kind[s as usize], links, |slot| {
+                    planes[slot as usize].n
                 });
                 cell.store(if r { RING_YES } else { RING_NO }, AtomicOrdering::Relaxed);
                 r
@@ -1335,11 +1343,34 @@ fn ring_kinds(mesh: &TriMesh) -> Vec<u8> {
 pub fn embedded_rings(mesh: &TriMesh) -> Vec<bool> {
     let kinds = ring_kinds(mesh);
     let normals: Vec<Vec3> = (0..mesh.n_faces()).map(|f| mesh.face_normal_scaled(f)).collect();
+    let (start, links) = ring_links(mesh, |f| f);
     (0..mesh.n_vertices() as u32)
         .into_par_iter()
         .with_min_len(512)
-        .map(|s| ring_is_embedded(mesh, s, kinds[s as usize], |f| normals[f as usize]))
+        .map(|s| {
+            let links = &links[start[s as usize] as usize..start[s as usize + 1] as usize];
+            ring_is_embedded(mesh.positions(), s, kinds[s as usize], links, |f| normals[f as usize])
+        })
         .collect()
+}
+
+/// Per vertex `s`, the wedges `(a, b, id(f))` of the faces `f = (s, a, b)` of its ring (in
+/// the mesh's vertex-face order), as `links[start[s]..start[s + 1]]`. Topology only.
+fn ring_links(mesh: &TriMesh, id: impl Fn(u32) -> u32) -> (Vec<u32>, Vec<[u32; 3]>) {
+    let topo = mesh.topology();
+    let faces = mesh.faces();
+    let mut start = Vec::with_capacity(mesh.n_vertices() + 1);
+    let mut links = Vec::with_capacity(3 * faces.len());
+    start.push(0);
+    for s in 0..mesh.n_vertices() as u32 {
+        for &f in topo.vertex_faces(s) {
+            let fv = faces[f as usize];
+            let k = fv.iter().position(|&v| v == s).unwrap_or(0);
+            links.push([fv[(k + 1) % 3], fv[(k + 2) % 3], id(f)]);
+        }
+        start.push(links.len() as u32);
+    }
+    (start, links)
 }
 
 /// `sin` of the smallest wedge angle accepted (1e-9 rad); far above the rounding of the
@@ -1347,7 +1378,8 @@ pub fn embedded_rings(mesh: &TriMesh) -> Vec<bool> {
 const MIN_WEDGE_SIN: f64 = 1e-9;
 
 /// Whether the ring of `s` is embedded in the projection along its summed normal `n`
-/// (`normal(f)` gives face `f`'s scaled normal): every face `(s, a, b)` spans a wedge of
+/// (`links` are its wedges `(a, b, id)` from [`ring_links`], `normal(id)` gives the scaled
+/// normal of face `(s, a, b)`): every face `(s, a, b)` spans a wedge of
 /// angle in (1e-9, π − 1e-9) around `s`, and the wedges cover the plane once (closed fan)
 /// or less than once with a margin of 1e-6 rad (open fan).
 ///
@@ -1362,15 +1394,11 @@ const MIN_WEDGE_SIN: f64 = 1e-9;
 /// to the true one because every edge of that polygon stays ≥ 1e-9 · (shorter side) away
 /// from `s`, far beyond the rounding. The fans cover the plane once exactly when it is 1.
 /// Open fans (boundary vertices) add the angles with `atan2`.
-fn ring_is_embedded(mesh: &TriMesh, s: u32, kind: u8, normal: impl Fn(u32) -> Vec3) -> bool {
+fn ring_is_embedded(pos: &[Vec3], s: u32, kind: u8, links: &[[u32; 3]], normal: impl Fn(u32) -> Vec3) -> bool {
     if kind == RING_OTHER {
         return false;
     }
-    let topo = mesh.topology();
-    let pos = mesh.positions();
-    let faces = mesh.faces();
-    let ring = topo.vertex_faces(s);
-    let n: Vec3 = ring.iter().map(|&f| normal(f)).sum();
+    let n: Vec3 = links.iter().map(|l| normal(l[2])).sum();
     let nn2 = n.norm_squared();
     if !(nn2.is_finite() && nn2 > 0.0) {
         return false;
@@ -1385,16 +1413,7 @@ fn ring_is_embedded(mesh: &TriMesh, s: u32, kind: u8, normal: impl Fn(u32) -> Ve
     let ps = pos[s as usize];
     let mut winding = 0u32;
     let mut total = 0.0;
-    for &f in ring {
-        let fv = faces[f as usize];
-        let k = if fv[0] == s {
-            0
-        } else if fv[1] == s {
-            1
-        } else {
-            2
-        };
-        let (a, b) = (fv[(k + 1) % 3], fv[(k + 2) % 3]);
+    for &[a, b, _] in links {
         let (da, db) = (pos[a as usize] - ps, pos[b as usize] - ps);
         let (xa, ya) = (da.dot(&u), da.dot(&w));
         let (xb, yb) = (db.dot(&u), db.dot(&w));
