@@ -18,7 +18,7 @@
 //! Chords that end inside a face (a path reaching an open boundary) do not split it; they are
 //! counted in [`CutMesh::n_dangling_chords`].
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use crate::intersect::{SegmentEnd, SelfIntersections};
 use crate::mesh::TriMesh;
@@ -63,7 +63,7 @@ pub struct CutMesh {
     /// For each face, the range of its pieces (empty for an uncut face).
     pub face_pieces: Vec<std::ops::Range<u32>>,
     /// Directed polygon edge `(from, to)` of a piece → fill id of that piece.
-    directed: HashMap<(u32, u32), u32>,
+    directed: FxHashMap<(u32, u32), u32>,
     /// Chords that end inside a face (open paths); they do not split their face.
     pub n_dangling_chords: usize,
     /// Faces where chords crossed or could not be ordered (triple points); such a face is
@@ -268,7 +268,7 @@ impl CutMesh {
         let is_perimeter = |node: u32| node < nv || (node - nv) % 2 == 0;
 
         // Adjacency of this face's nodes through its half segments.
-        let mut adj: HashMap<u32, smallvec::SmallVec<[(u32, u32); 2]>> = HashMap::new();
+        let mut adj: FxHashMap<u32, smallvec::SmallVec<[(u32, u32); 2]>> = FxHashMap::default();
         for (k, s) in segs.iter().enumerate() {
             adj.entry(s.a).or_default().push((s.b, k as u32));
             adj.entry(s.b).or_default().push((s.a, k as u32));

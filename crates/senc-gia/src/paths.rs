@@ -7,7 +7,7 @@
 //! open boundaries, so the preimages form closed contours: one per sheet when two sheets
 //! cross, or one through two loop vertices when a surface is folded through itself.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use senc_geom::cut::{edge_node, face_node};
 use senc_geom::intersect::{SegmentEnd, SelfIntersections};
@@ -72,7 +72,8 @@ pub fn contours(n_vertices: usize, inter: &SelfIntersections) -> Vec<Contour> {
     };
     // Half segments: (key_a, key_b, node_a, node_b).
     let mut halves: Vec<[u32; 4]> = Vec::with_capacity(inter.segments.len() * 2);
-    let mut adj: HashMap<u32, SmallVec<[u32; 2]>> = HashMap::with_capacity(inter.segments.len() * 4);
+    let mut adj: FxHashMap<u32, SmallVec<[u32; 2]>> =
+        FxHashMap::with_capacity_and_hasher(inter.segments.len() * 4, Default::default());
     for (s, seg) in inter.segments.iter().enumerate() {
         for &face in &seg.faces {
             let (ka, na) = key_of(seg.ends[0], face, s as u32);
