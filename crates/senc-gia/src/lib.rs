@@ -171,6 +171,11 @@ pub struct GiaWorkspace {
     mark: Vec<u8>,
     touched: Vec<u32>,
     nodes: Vec<Vec3>,
+    /// Gradient buffers reused between calls: per cut-mesh node (volume, area) and per
+    /// closed-mesh vertex.
+    node_grad: Vec<Vec3>,
+    area_node_grad: Vec<Vec3>,
+    closed_grad: Vec<Vec3>,
 }
 
 const UNSEEN: u8 = 0;
@@ -187,6 +192,9 @@ impl GiaWorkspace {
             mark: Vec::new(),
             touched: Vec::new(),
             nodes: Vec::new(),
+            node_grad: Vec::new(),
+            area_node_grad: Vec::new(),
+            closed_grad: Vec::new(),
         }
     }
 
@@ -204,15 +212,13 @@ impl GiaWorkspace {
     pub fn analyse(&mut self, closure: &Closure, inter: &SelfIntersections, options: &GiaOptions) -> Penetration {
         let mesh = closure.mesh();
         let nv = mesh.n_vertices();
-        let mut out = Penetration {
-            gradient: vec![Vec3::zeros(); closure.n_original()],
-            area_gradient: vec![Vec3::zeros(); closure.n_original()],
-            ..Default::default()
-        };
+        let mut out = Penetration::default();
         out.diagnostics.candidate_pairs = inter.n_candidate_pairs;
         out.diagnostics.inconsistent_pairs = inter.n_inconsistent_pairs;
         out.diagnostics.intersecting_pairs = inter.segments.len();
         if inter.segments.is_empty() {
+            out.gradient = vec![Vec3::zeros(); closure.n_original()];
+            out.area_gradient = vec![Vec3::zeros(); closure.n_original()];
             return out;
         }
         let cut = CutMesh::new(mesh, inter);
@@ -237,8 +243,12 @@ impl GiaWorkspace {
 
         // Group contours that share intersection points (twins bound one pocket).
         let groups = group_contours(&contours, inter.points.len());
-        let mut node_grad = vec![Vec3::zeros(); nodes.len()];
-        let mut area_node_grad = vec![Vec3::zeros(); nodes.len()];
+        let mut node_grad = std::mem::take(&mut self.node_grad);
+        let mut area_node_grad = std::mem::take(&mut self.area_node_grad);
+        for g in [&mut node_grad, &mut area_node_grad] {
+            g.clear();
+            g.resize(nodes.len(), Vec3::zeros());
+        }
         for group in groups {
             if group.iter().any(|&c| sides[c].is_none()) {
                 if group.iter().any(|&c| contours[c].kind != PathKind::OpenBoundary) {
@@ -276,7 +286,9 @@ impl GiaWorkspace {
             out.volume += signed.abs();
             out.area += area;
         }
-        let mut closed_grad = vec![Vec3::zeros(); nv];
+        let mut closed_grad = std::mem::take(&mut self.closed_grad);
+        closed_grad.clear();
+        closed_grad.resize(nv, Vec3::zeros());
         out.diagnostics.gradient_fallbacks =
             volume::chain_to_vertices(mesh, inter, options.gradient, &node_grad, &mut closed_grad);
         out.gradient = closure.pull_back(&closed_grad);
@@ -284,6 +296,9 @@ impl GiaWorkspace {
         volume::chain_to_vertices(mesh, inter, options.gradient, &area_node_grad, &mut closed_grad);
         out.area_gradient = closure.pull_back(&closed_grad);
         self.nodes = nodes;
+        self.node_grad = node_grad;
+        self.area_node_grad = area_node_grad;
+        self.closed_grad = closed_grad;
         out
     }
 
