@@ -125,6 +125,7 @@ fn model(o: &Opts) -> Result<()> {
         curr: &curr,
         material: senc_model::Material { mu, lambda, bending: mc.bending, density: mc.density },
         accel: Vec3::from(g.scene.config.external_force.gravity),
+        dt: g.scene.dt(),
         body: Some(BodyState { faces: g.body_faces(), curr: &body_t, next: &body_n }),
     };
     let graph_config = cfg.model.graph_config();

@@ -24,8 +24,8 @@ pub enum ModelError {
         /// The first offending entry.
         index: usize,
     },
-    /// A material parameter is outside its domain.
-    #[error("material parameter {what} = {value} must be positive")]
+    /// A material parameter or the time step is outside its domain.
+    #[error("{what} = {value} must be positive and finite")]
     BadMaterial {
         /// The parameter name.
         what: &'static str,

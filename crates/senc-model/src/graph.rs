@@ -176,6 +176,9 @@ pub struct FrameState<'a> {
     pub material: Material,
     /// Gravity plus the sequence's external acceleration `g + a_ext`, m/s².
     pub accel: Vec3,
+    /// Time step `Δt` from `t` to `t+1`, s. The known forcing step `Δt² (g + a_ext)` is added
+    /// to the network's output (see [`crate::Model::predict`]).
+    pub dt: f64,
     /// The body, if the scene has one.
     pub body: Option<BodyState<'a>>,
 }
@@ -413,6 +416,9 @@ fn validate(frame: &FrameState<'_>) -> Result<(), ModelError> {
     }
     if !frame.accel.iter().all(|c| c.is_finite()) {
         return Err(ModelError::NotFinite { what: "gravity + external acceleration", index: 0 });
+    }
+    if !(frame.dt.is_finite() && frame.dt > 0.0) {
+        return Err(ModelError::BadMaterial { what: "time step dt", value: frame.dt });
     }
     let m = frame.material;
     for (what, value) in [("mu", m.mu), ("lambda", m.lambda), ("bending", m.bending), ("density", m.density)] {

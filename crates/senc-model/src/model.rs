@@ -57,8 +57,9 @@ impl Model {
         GraphTensors::new(graph, &self.normalizers, &self.device)
     }
 
-    /// The predicted acceleration term per cloth vertex, `Δt² a` in metres, so that
-    /// `x[t+1] = 2 x[t] − x[t−1] + forward(..)`.
+    /// The predicted response per cloth vertex in metres (the cloth's own acceleration term
+    /// beyond gravity and the external force, `Δt²` times it), so that
+    /// `x[t+1] = 2 x[t] − x[t−1] + Δt² (g + a_ext) + forward(..)`.
     ///
     /// # Shapes
     /// `[n_cloth, 3]`, f32, on this model's device (tracked when the device is autodiff).
@@ -74,24 +75,28 @@ impl Model {
         out * std + mean
     }
 
-    /// The predicted next cloth positions `x[t+1] = 2 x[t] − x[t−1] + Δt² a` as a tensor
-    /// (tracked when the device is autodiff). `[n_cloth, 3]`.
+    /// The known part of the next positions, `2 x[t] − x[t−1] + Δt² (g + a_ext)`: free flight
+    /// under gravity and the external force. The network predicts only the rest, the
+    /// response of the cloth (stretching, bending, contact), so a force it never saw in
+    /// training (a new wind direction) still moves the garment exactly, and the output
+    /// normaliser's statistics describe that response, not the sequence's random force.
+    pub fn free_flight(frame: &crate::FrameState<'_>) -> Vec<Vec3> {
+        let f = frame.accel * (frame.dt * frame.dt);
+        frame.curr.iter().zip(frame.prev).map(|(c, p)| c * 2.0 - p + f).collect()
+    }
+
+    /// The predicted next cloth positions `x[t+1] = free flight + r` (see
+    /// [`Model::free_flight`]) as a tensor (tracked when the device is autodiff).
+    /// `[n_cloth, 3]`.
     pub fn predict_positions(&self, graph: &GraphInputs, frame: &crate::FrameState<'_>) -> Tensor<2> {
-        let base: Vec<f64> = frame
-            .curr
-            .iter()
-            .zip(frame.prev)
-            .flat_map(|(c, p)| {
-                let b = c * 2.0 - p;
-                [b.x, b.y, b.z]
-            })
-            .collect();
+        let base: Vec<f64> = Self::free_flight(frame).iter().flat_map(|b| [b.x, b.y, b.z]).collect();
         let base = f32_tensor(&base, [frame.curr.len(), 3], &self.device);
         base + self.forward(graph)
     }
 
-    /// One training prediction: the tracked acceleration tensor `[n_cloth, 3]` and the next
-    /// positions in f64, `x[t+1] = 2 x[t] − x[t−1] + a` (the f32 `a` read back once).
+    /// One training prediction: the tracked response tensor `r` `[n_cloth, 3]` and the next
+    /// positions in f64, `x[t+1] = 2 x[t] − x[t−1] + Δt² (g + a_ext) + r` (the f32 `r` read
+    /// back once).
     ///
     /// Feed `∂E/∂x[t+1]` at those positions to [`crate::surrogate_backward`] together with the
     /// tensor: `x[t+1]` and `a` differ by a constant, so they have the same parameter gradient.
@@ -105,7 +110,7 @@ impl Model {
         if a.len() != frame.curr.len() {
             return Err(ModelError::LengthMismatch { what: "cloth x[t]", got: frame.curr.len(), expected: a.len() });
         }
-        let next = frame.curr.iter().zip(frame.prev).zip(a).map(|((c, p), a)| c * 2.0 - p + a).collect();
+        let next = Self::free_flight(frame).into_iter().zip(a).map(|(b, a)| b + a).collect();
         Ok((accel, next))
     }
 
@@ -115,6 +120,6 @@ impl Model {
         let graph = self.build_graph(frame)?;
         let accel = if self.device.is_autodiff() { self.valid().forward(&graph) } else { self.forward(&graph) };
         let accel = tensor_to_vec3(accel)?;
-        Ok(frame.curr.iter().zip(frame.prev).zip(accel).map(|((c, p), a)| c * 2.0 - p + a).collect())
+        Ok(Self::free_flight(frame).into_iter().zip(accel).map(|(b, a)| b + a).collect())
     }
 }

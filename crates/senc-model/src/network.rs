@@ -206,6 +206,19 @@ pub struct Network {
 }
 
 impl Network {
+    /// The same network with the decoder's last layer (weights and bias) set to zero, so
+    /// that it predicts the output normaliser's mean for every vertex: a smooth free-flight
+    /// step instead of independent per-vertex noise, whose stretching energy is orders of
+    /// magnitude above any physical step. The last layer still receives gradients, so
+    /// training moves off zero on its first step.
+    pub fn with_zero_output(mut self) -> Self {
+        if let Some(last) = self.decoder.layers.last_mut() {
+            last.weight = last.weight.clone().map(|w| w.zeros_like().require_grad());
+            last.bias = last.bias.take().map(|b| b.map(|t| t.zeros_like().require_grad()));
+        }
+        self
+    }
+
     /// Runs the network on one graph and returns the normalised output for the cloth nodes.
     ///
     /// # Shapes

@@ -129,6 +129,7 @@ impl SyntheticScene {
             curr: &self.curr,
             material: self.material,
             accel: self.accel,
+            dt: 1.0 / 30.0,
             body: (!self.body_curr.is_empty()).then_some(BodyState {
                 faces: &self.body_faces,
                 curr: &self.body_curr,

@@ -451,3 +451,32 @@ fn coarse_levels_keep_about_half_the_vertices_and_stay_local() {
     assert_eq!(g.edge_set(EdgeType::Coarse(1)).len(), 2 * levels[0].len());
     assert_eq!(g.edge_set(EdgeType::Coarse(2)).len(), 2 * levels[1].len());
 }
+
+#[test]
+fn zero_output_network_takes_the_mean_step_and_still_learns() {
+    let s = scene();
+    let device = Device::flex().autodiff();
+    let mut model = warmed_model(&s, &device, 5);
+    model.network = model.network.with_zero_output();
+    let frame = s.frame();
+    let graph = model.build_graph(&frame).unwrap();
+    let (x, next) = model.predict(&graph, &frame).unwrap();
+    // Every vertex gets free flight under gravity plus the output normaliser's mean.
+    let mean = model.normalizers.output.mean();
+    let forcing = frame.accel * (frame.dt * frame.dt);
+    assert!(forcing.norm() > 1e-3);
+    for ((n, c), p) in next.iter().zip(frame.curr).zip(frame.prev) {
+        let a = n - (c * 2.0 - p) - forcing;
+        for k in 0..3 {
+            assert!((a[k] - mean[k]).abs() < 1e-6, "{a:?} vs {mean:?}");
+        }
+    }
+    // The zeroed layer is still a tracked parameter: its gradient is non-zero.
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    let g: Vec<Vec3> = (0..s.curr.len()).map(|_| Vec3::new(rng.random(), rng.random(), rng.random())).collect();
+    let grads = surrogate_backward(x, &g).unwrap();
+    let mut visitor = GradNorms { grads: &grads, norms: Vec::new() };
+    model.network.visit(&mut visitor);
+    let last: Vec<f64> = visitor.norms.iter().rev().take(2).map(|(_, n)| n.unwrap_or(0.0)).collect();
+    assert!(last.iter().all(|&n| n > 0.0 && n.is_finite()), "decoder output layer gradients {last:?}");
+}

@@ -52,6 +52,15 @@ pub struct TrainConfig {
     /// Probability that a sequence starts at frame 0 with the long first step
     /// (`[scene] first_step_dt`) from the skinned rest pose.
     pub first_step_probability: f64,
+    /// Largest share of cloth vertices inside the (proxy) body in the skinned state a
+    /// mid-motion sequence starts from; windows above it are redrawn (up to
+    /// `start_tries` times, then the least penetrating one drawn is used). Linear blend
+    /// skinning pushes loose garments deep into the body where limbs meet the torso, and
+    /// such starts teach only how to undo skinning artefacts (hundreds of joules of
+    /// collision energy against about one joule for a physical step). 1 disables the test.
+    pub max_start_penetration: f64,
+    /// Windows drawn at most per sequence for `max_start_penetration`.
+    pub start_tries: usize,
     /// Draw each sequence's material from HOOD's ranges (else the scene's material).
     pub random_material: bool,
     /// Largest magnitude of the random external acceleration per sequence, m/s² (SENC: 10).
@@ -87,6 +96,8 @@ impl Default for TrainConfig {
             rollout_growth: 500,
             noise_std: 3e-3,
             first_step_probability: 0.1,
+            max_start_penetration: 0.005,
+            start_tries: 20,
             random_material: true,
             external_max: 10.0,
             body_margin: 0.12,
@@ -153,6 +164,9 @@ pub struct ModelSection {
     pub self_radius: f64,
     /// Body edge radius, m (HOOD: 0.03).
     pub body_radius: f64,
+    /// Start the decoder's last layer at zero, so the untrained network takes a smooth
+    /// free-flight step (HOOD: no, random). Default true.
+    pub zero_init_output: bool,
 }
 
 impl Default for ModelSection {
@@ -166,6 +180,7 @@ impl Default for ModelSection {
             self_edges: SelfEdgeMode::ExcludeMesh,
             self_radius: 0.02,
             body_radius: 0.03,
+            zero_init_output: true,
         }
     }
 }
@@ -312,6 +327,9 @@ impl RunConfig {
         }
         if !(0.0..=1.0).contains(&t.first_step_probability) {
             return bad(format!("[train] first_step_probability = {} must be in [0, 1]", t.first_step_probability));
+        }
+        if !(0.0..=1.0).contains(&t.max_start_penetration) {
+            return bad(format!("[train] max_start_penetration = {} must be in [0, 1]", t.max_start_penetration));
         }
         if t.checkpoint_every == 0 {
             return bad("[train] checkpoint_every must be >= 1".into());

@@ -16,7 +16,7 @@ use senc_energy::{solve, EnergyModel, SolverOptions};
 use senc_geom::{close_holes, Closure, Vec3};
 use senc_gia::{GiaOptions, GiaWorkspace};
 use senc_model::burn::tensor::Device;
-use senc_model::{BodyState, FrameState, GraphInputs, Model};
+use senc_model::{BodyState, FrameState, Model};
 use senc_scene::BodyQuery;
 use serde::Serialize;
 
@@ -253,12 +253,11 @@ fn error_vs_runtime(
             curr,
             material: mat,
             accel,
+            dt: ec.dt,
             body: Some(BodyState { faces: g.body_faces(), curr: bt, next: bn }),
         };
-        let graph = GraphInputs::build(&frame, &model.graph)?;
-        let a = senc_model::tensor_to_vec3(model.forward(&graph))?;
+        let x = model.step(&frame)?;
         let ms = t0.elapsed().as_secs_f64() * 1e3;
-        let x: Vec<Vec3> = curr.iter().zip(prev).zip(a).map(|((c, p), a)| c * 2.0 - p + a).collect();
         let e = fe.evaluate(&x, None)?.total;
         let last = budgets.len();
         acc[last].0 += ms;
@@ -496,6 +495,7 @@ pub fn one_step_probe(
                 curr: &curr,
                 material: mat,
                 accel,
+                dt,
                 body: Some(BodyState { faces: g.body_faces(), curr: &bt, next: &bn }),
             };
             answers.push(m.step(&frame)?);

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use senc_energy::Material;
 use senc_geom::Vec3;
-use senc_model::{BodyState, FrameState, GraphInputs, Model};
+use senc_model::{BodyState, FrameState, Model};
 use senc_scene::Motion;
 
 use crate::error::TrainError;
@@ -58,12 +58,11 @@ pub fn rollout(
             curr: &curr,
             material: mat,
             accel,
+            dt: g.scene.dt(),
             body: Some(BodyState { faces: g.body_faces(), curr: &body[f], next: &b_next }),
         };
-        let graph = GraphInputs::build(&frame, &model.graph)?;
-        let a = senc_model::tensor_to_vec3(model.forward(&graph))?;
+        let next = model.step(&frame)?;
         infer += t0.elapsed().as_secs_f64();
-        let next: Vec<Vec3> = curr.iter().zip(&prev).zip(a).map(|((c, p), a)| c * 2.0 - p + a).collect();
         if !next.iter().all(|p| p.iter().all(|c| c.is_finite())) {
             return Err(TrainError::Invalid(format!("the rollout diverged (non-finite positions) at frame {}", f + 1)));
         }

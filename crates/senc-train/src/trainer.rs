@@ -144,6 +144,7 @@ fn frame_state<'a>(
     body_t: &'a [Vec3],
     body_n: &'a [Vec3],
     accel: Vec3,
+    dt: f64,
 ) -> FrameState<'a> {
     FrameState {
         rest: &g.rest,
@@ -151,6 +152,7 @@ fn frame_state<'a>(
         curr: &seq.curr,
         material: model_material(&seq.material),
         accel,
+        dt,
         body: Some(BodyState { faces: g.body_faces(), curr: body_t, next: body_n }),
     }
 }
@@ -194,7 +196,11 @@ impl Trainer {
         let config_text = std::fs::read_to_string(config_path).map_err(|e| TrainError::io(config_path, e))?;
         let garments = Self::load_garments(&config)?;
         let device = Device::flex().autodiff();
-        let model = Model::new(config.model.model_config(), config.model.graph_config(), config.train.seed, &device);
+        let mut model =
+            Model::new(config.model.model_config(), config.model.graph_config(), config.train.seed, &device);
+        if config.model.zero_init_output {
+            model.network = model.network.with_zero_output();
+        }
         let rng = ChaCha8Rng::seed_from_u64(config.train.seed);
         std::fs::create_dir_all(out).map_err(|e| TrainError::io(out, e))?;
         let csv = out.join(CSV_FILE);
@@ -324,7 +330,29 @@ impl Trainer {
         let motion = &g.scene.train[mi];
         let n = motion.n_frames();
         let first = self.rng.random::<f64>() < t.first_step_probability;
-        let frame = if first { 0 } else { self.rng.random_range(1..n - len - 1) };
+        let frame = if first {
+            0
+        } else if t.max_start_penetration >= 1.0 {
+            self.rng.random_range(1..n - len - 1)
+        } else {
+            // The least penetrating of up to `start_tries` windows (the first one that is
+            // clean enough ends the search).
+            let limit = t.max_start_penetration * g.rest.n_vertices() as f64;
+            let mut best = (usize::MAX, 1);
+            for _ in 0..t.start_tries.max(1) {
+                let f = self.rng.random_range(1..n - len - 1);
+                let body = g.body_at(motion, f)?;
+                let q = senc_scene::BodyQuery::new(&body, g.body_faces())?;
+                let inside = q.inside(&g.skinned_at(motion, f)?).len();
+                if inside < best.0 {
+                    best = (inside, f);
+                }
+                if inside as f64 <= limit {
+                    break;
+                }
+            }
+            best.1
+        };
         let material = if t.random_material { Material::sample_hood(&mut self.rng) } else { scene_material(g)? };
         let mag = self.rng.random::<f64>() * t.external_max;
         let dir = loop {
@@ -379,17 +407,20 @@ impl Trainer {
         let body_t = g.body_at(motion, seq.frame)?;
         let body_n = g.body_at(motion, seq.frame + 1)?;
         let accel = self.gravity(g) + Vec3::from(seq.external);
-        let frame = frame_state(g, &seq, &body_t, &body_n, accel);
+        let dt = g.scene.dt();
+        let frame = frame_state(g, &seq, &body_t, &body_n, accel, dt);
         let graph = GraphInputs::build(&frame, &self.model.graph)?;
         self.model.normalizers.update_inputs(&graph);
+        // The response the skinned garment would need on top of free flight under gravity
+        // alone (the random external force is left out so it cannot bias the mean).
         let next = g.skinned_at(motion, seq.frame + 1)?;
-        let dt = g.scene.dt();
+        let forcing = self.gravity(g) * (dt * dt);
         let rows: Vec<f64> = next
             .iter()
             .zip(&seq.curr)
             .zip(&seq.prev)
             .flat_map(|((n, c), p)| {
-                let a = n - c * 2.0 + p + accel * dt * dt;
+                let a = n - c * 2.0 + p - forcing;
                 [a.x, a.y, a.z]
             })
             .collect();
@@ -424,11 +455,11 @@ impl Trainer {
         let body_t = if seq.first_step { g.body_at(motion, 0)? } else { g.body_at(motion, seq.frame)? };
         let body_n = g.body_at(motion, seq.frame + 1)?;
         let accel = self.gravity(&g) + Vec3::from(seq.external);
-        let frame = frame_state(&g, &seq, &body_t, &body_n, accel);
+        // The long first step uses its own Δt (in the forcing and in the energy).
+        let dt = if seq.first_step { g.scene.config.first_step_dt } else { g.scene.dt() };
+        let frame = frame_state(&g, &seq, &body_t, &body_n, accel, dt);
         let graph = GraphInputs::build(&frame, &self.model.graph)?;
         let (accel_t, next) = self.model.predict(&graph, &frame)?;
-        // Energy of the prediction (the long first step uses its own Δt).
-        let dt = if seq.first_step { g.scene.config.first_step_dt } else { g.scene.dt() };
         let key = self.sequence_id.wrapping_mul(2) + u64::from(seq.first_step);
         if self.energy_cache.as_ref().is_none_or(|(k, _)| *k != key) {
             let mut ec = self.config.energy_for(phase, seq.material, seq.external);
