@@ -2,6 +2,8 @@
 //! [--garment G] [--previews K] --out DIR`: rolls a trained model out on a motion and writes
 //! one OBJ per frame (garment and proxy body), one animated `sequence.glb` (garment and full
 //! body), and K preview PNGs (front, side and back views) spread over the sequence.
+//! `--solver N --config FILE` (no checkpoint) simulates with the reference solver instead
+//! (at most N Newton iterations per frame on the config's phase-2 energy).
 
 use std::path::Path;
 
