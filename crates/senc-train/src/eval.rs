@@ -12,7 +12,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use senc_energy::{solve, EnergyModel, SolverOptions};
+use senc_energy::{solve, SolverOptions};
 use senc_geom::{close_holes, Closure, Vec3};
 use senc_gia::{GiaOptions, GiaWorkspace};
 use senc_model::burn::tensor::Device;
@@ -215,11 +215,8 @@ fn error_vs_runtime(
 ) -> Result<Vec<CurvePoint>, TrainError> {
     let material = scene_material(g)?;
     let ext = g.scene.config.external_force.acceleration;
-    let mut ec = cfg.energy_for(2, material, ext);
-    ec.gravity = g.scene.config.external_force.gravity;
-    ec.dt = g.scene.dt();
-    ec.self_collision.open_holes = g.open_holes.clone();
-    let em = EnergyModel::new(&g.rest, &ec, Some(&g.proxy_mesh))?;
+    let dt = g.scene.dt();
+    let em = g.energy_model(cfg.energy_for(2, material, ext), dt)?;
     let (_, r) = &rollouts[0];
     let k = cfg.eval.curve_states.max(1).min(r.steps.saturating_sub(1).max(1));
     let states: Vec<usize> = (0..k).map(|i| 1 + i * (r.steps.saturating_sub(1)) / k).collect();
@@ -253,7 +250,7 @@ fn error_vs_runtime(
             curr,
             material: mat,
             accel,
-            dt: ec.dt,
+            dt,
             body: Some(BodyState { faces: g.body_faces(), curr: bt, next: bn }),
         };
         let x = model.step(&frame)?;
@@ -437,13 +434,9 @@ pub fn one_step_probe(
     let model = checkpoint.map(|c| Model::load(c, &Device::flex())).transpose()?;
     let material = scene_material(&g)?;
     let ext = g.scene.config.external_force.acceleration;
-    let mut ec = cfg.energy_for(1, material, ext);
-    ec.gravity = g.scene.config.external_force.gravity;
-    ec.dt = g.scene.dt();
-    ec.self_collision.open_holes = g.open_holes.clone();
-    let em = EnergyModel::new(&g.rest, &ec, Some(&g.proxy_mesh))?;
-    let accel = Vec3::from(ec.gravity) + Vec3::from(ext);
-    let dt = ec.dt;
+    let dt = g.scene.dt();
+    let em = g.energy_model(cfg.energy_for(1, material, ext), dt)?;
+    let accel = Vec3::from(g.scene.config.external_force.gravity) + Vec3::from(ext);
     let mat = senc_model::Material {
         mu: material.mu,
         lambda: material.lambda,

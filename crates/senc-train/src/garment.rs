@@ -116,6 +116,19 @@ impl Garment {
         Ok(skin(&self.proxy_rest, &self.proxy_weights, &tr))
     }
 
+    /// The energy of this garment's frames: `energy` with the step `dt` (s), the scene's
+    /// gravity and the garment's open holes, against the proxy body.
+    pub fn energy_model(
+        &self,
+        mut energy: senc_energy::EnergyConfig,
+        dt: f64,
+    ) -> Result<senc_energy::EnergyModel, TrainError> {
+        energy.dt = dt;
+        energy.gravity = self.scene.config.external_force.gravity;
+        energy.self_collision.open_holes = self.open_holes.clone();
+        Ok(senc_energy::EnergyModel::new(&self.rest, &energy, Some(&self.proxy_mesh))?)
+    }
+
     /// The garment skinned (no dynamics) to `frame` of `motion`, m.
     pub fn skinned_at(&self, motion: &Motion, frame: usize) -> Result<Vec<Vec3>, TrainError> {
         Ok(self.scene.garment_skinned_at(motion, frame)?)

@@ -88,11 +88,7 @@ pub fn solver_rollout(
     energy: &senc_energy::EnergyConfig,
     iterations: usize,
 ) -> Result<Rollout, TrainError> {
-    let mut ec = energy.clone();
-    ec.dt = g.scene.dt();
-    ec.gravity = g.scene.config.external_force.gravity;
-    ec.self_collision.open_holes = g.open_holes.clone();
-    let em = senc_energy::EnergyModel::new(&g.rest, &ec, Some(&g.proxy_mesh))?;
+    let em = g.energy_model(energy.clone(), g.scene.dt())?;
     let opts = senc_energy::SolverOptions { max_iterations: iterations.max(1), ..Default::default() };
     let n = frames.min(motion.n_frames().saturating_sub(1));
     let x0 = g.skinned_at(motion, 0)?;

@@ -466,10 +466,7 @@ impl Trainer {
             // HOOD's collision ramp, per sequence (counted over both phases).
             let global = if phase == 1 { k } else { self.config.train.phase1_iterations + k };
             ec.collision.weight = self.config.train.collision_weight(global, ec.collision.weight);
-            ec.dt = dt;
-            ec.gravity = g.scene.config.external_force.gravity;
-            ec.self_collision.open_holes = g.open_holes.clone();
-            self.energy_cache = Some((key, EnergyModel::new(&g.rest, &ec, Some(&g.proxy_mesh))?));
+            self.energy_cache = Some((key, g.energy_model(ec, dt)?));
         }
         let em = &self.energy_cache.as_ref().expect("built above").1;
         let mut grad = vec![Vec3::zeros(); next.len()];

@@ -116,7 +116,7 @@ fn reference_solver_rollout_keeps_the_tshirt_whole() {
     use senc_train::garment::Garment;
     use senc_train::rollout::solver_rollout;
     use senc_train::trainer::scene_material;
-    let cfg = senc_train::RunConfig::read(&root().join("configs/tshirt.toml")).unwrap();
+    let cfg = senc_train::RunConfig::read(root().join("configs/tshirt.toml")).unwrap();
     let g = Garment::load(&senc_train::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
     let motion = &g.scene.test[0];
     let energy = cfg.energy_for(1, scene_material(&g).unwrap(), [0.0; 3]);
