@@ -24,7 +24,7 @@ use crate::config::RunConfig;
 use crate::error::TrainError;
 use crate::garment::Garment;
 use crate::rollout::{rollout, Rollout};
-use crate::trainer::{scene_material, CONFIG_FILE};
+use crate::trainer::{model_material, scene_material, CONFIG_FILE};
 
 /// A checkpoint to evaluate, with the row label and the config whose scene it runs on.
 #[derive(Debug, Clone)]
@@ -223,12 +223,7 @@ fn error_vs_runtime(
     let budgets = &cfg.eval.solver_budgets;
     let mut acc = vec![(0.0, 0.0, 0.0); budgets.len() + 1];
     let accel = Vec3::from(g.scene.config.external_force.gravity) + Vec3::from(ext);
-    let mat = senc_model::Material {
-        mu: material.mu,
-        lambda: material.lambda,
-        bending: material.bending_stiffness,
-        density: material.density,
-    };
+    let mat = model_material(&material);
     for &s in &states {
         let (prev, curr) = (&r.cloth[s - 1], &r.cloth[s]);
         let (bt, bn) = (&r.body[s], &r.body[s + 1]);
@@ -437,12 +432,7 @@ pub fn one_step_probe(
     let dt = g.scene.dt();
     let em = g.energy_model(cfg.energy_for(1, material, ext), dt)?;
     let accel = Vec3::from(g.scene.config.external_force.gravity) + Vec3::from(ext);
-    let mat = senc_model::Material {
-        mu: material.mu,
-        lambda: material.lambda,
-        bending: material.bending_stiffness,
-        density: material.density,
-    };
+    let mat = model_material(&material);
     let mut names: Vec<String> = vec!["free flight".into(), "skinned".into()];
     names.extend(budgets.iter().map(|b| format!("solver {b} it")));
     if model.is_some() {

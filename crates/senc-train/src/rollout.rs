@@ -10,6 +10,7 @@ use senc_scene::Motion;
 
 use crate::error::TrainError;
 use crate::garment::Garment;
+use crate::trainer::model_material;
 
 /// A simulated sequence.
 #[derive(Debug, Clone)]
@@ -42,12 +43,7 @@ pub fn rollout(
     let mut prev = x0.clone();
     let mut curr = x0;
     let accel = Vec3::from(g.scene.config.external_force.gravity) + external;
-    let mat = senc_model::Material {
-        mu: material.mu,
-        lambda: material.lambda,
-        bending: material.bending_stiffness,
-        density: material.density,
-    };
+    let mat = model_material(material);
     let mut infer = 0.0;
     for f in 0..n {
         let b_next = g.body_at(motion, f + 1)?;

@@ -157,7 +157,8 @@ fn frame_state<'a>(
     }
 }
 
-fn model_material(m: &Material) -> senc_model::Material {
+/// The network's view of an energy material.
+pub fn model_material(m: &Material) -> senc_model::Material {
     senc_model::Material { mu: m.mu, lambda: m.lambda, bending: m.bending_stiffness, density: m.density }
 }
 
