@@ -117,7 +117,6 @@ impl BlockSparse {
                 d.try_inverse().unwrap_or_else(Matrix3::identity)
             })
             .collect();
-        let dot = |a: &[Vec3], b: &[Vec3]| a.par_iter().zip(b).map(|(a, b)| a.dot(b)).sum::<f64>();
         x.iter_mut().for_each(|v| *v = Vec3::zeros());
         let mut r = b.to_vec();
         let mut z: Vec<Vec3> = r.iter().zip(&precond).map(|(r, p)| p * r).collect();
@@ -237,4 +236,17 @@ pub fn project_spd(h: &mut [[Matrix3<f64>; 3]; 3]) {
             h[k][l] = m.fixed_view::<3, 3>(3 * k, 3 * l).into_owned();
         }
     }
+}
+
+/// Σ aᵢ·bᵢ, in parallel over fixed chunks whose partial sums are added in order, so the
+/// result does not depend on how rayon splits the work (a plain parallel `sum` does, and
+/// made solves differ in the last bits from run to run, enough to change a short solve).
+pub(crate) fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
+    const CHUNK: usize = 1024;
+    let partial: Vec<f64> = a
+        .par_chunks(CHUNK)
+        .zip(b.par_chunks(CHUNK))
+        .map(|(a, b)| a.iter().zip(b).map(|(a, b)| a.dot(b)).sum())
+        .collect();
+    partial.iter().sum()
 }

@@ -132,13 +132,13 @@ pub fn solve(
         energy.hessian(&x, &mut h);
         let rhs: Vec<Vec3> = g.iter().map(|v| -v).collect();
         cg_total += h.solve_pcg(&rhs, &mut p, options.cg_tolerance, options.cg_max_iterations);
-        let mut slope: f64 = p.par_iter().zip(&g).map(|(p, g)| p.dot(g)).sum();
+        let mut slope = crate::hessian::dot(&p, &g);
         if slope.is_nan() || slope >= 0.0 || p.iter().any(|v| !v.iter().all(|c| c.is_finite())) {
             // Not a descent direction: steepest descent, scaled by the Hessian diagonal.
             p.iter_mut().zip(&rhs).for_each(|(p, r)| *p = *r);
             let scale = 1.0 / h_diag_max(&h, n).max(1e-300);
             p.iter_mut().for_each(|v| *v *= scale);
-            slope = p.par_iter().zip(&g).map(|(p, g)| p.dot(g)).sum();
+            slope = crate::hessian::dot(&p, &g);
         }
         let mut alpha = 1.0;
         let mut accepted = None;

@@ -104,3 +104,29 @@ fn iteration_budget_is_honoured_and_more_iterations_do_not_hurt() {
         last = r.energy;
     }
 }
+
+/// The same solve gives bit-identical positions whatever the thread count: the solver's
+/// reductions (line-search slope, CG dot products) add fixed chunks in order. A plain
+/// parallel `sum` made short solves differ run to run, enough to flip a test threshold.
+#[test]
+fn solve_is_bit_identical_across_thread_counts() {
+    let scene = drape(base_config(), Vec3::new(0.0, 0.01, 0.0), 0.32);
+    let garment = sheet(60, 0.8, 0.32, 0.2, 1);
+    assert!(garment.n_vertices() > 3000);
+    let model = EnergyModel::new(&garment, &scene.config, Some(&scene.body)).unwrap();
+    let x = garment.positions().to_vec();
+    let body: Vec<Vec3> = scene.body.positions().to_vec();
+    let body_next: Vec<Vec3> = body.iter().map(|p| p + scene.body_step).collect();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let e = model.frame(&x, &x, Some((&body, &body_next))).unwrap();
+            let guess = e.inertial_target().unwrap().to_vec();
+            solve(&e, &guess, &SolverOptions { max_iterations: 4, ..Default::default() }).unwrap().0
+        })
+    };
+    let one = run(1);
+    for threads in [2, 3] {
+        assert!(one == run(threads), "{threads} threads gave other positions than 1");
+    }
+}
