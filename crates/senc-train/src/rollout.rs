@@ -19,10 +19,42 @@ pub struct Rollout {
     pub cloth: Vec<Vec<Vec3>>,
     /// Proxy body positions per frame, m.
     pub body: Vec<Vec<Vec3>>,
-    /// Seconds spent building graphs and running the network (no I/O, no skinning).
+    /// Seconds spent in the per-frame step: graph building and network, or the solver (no
+    /// I/O, no skinning).
     pub infer_seconds: f64,
     /// Frames predicted.
     pub steps: usize,
+}
+
+/// The rollout loop shared by the network and the solver: the garment starts skinned at
+/// frame 0 with zero velocity; `step(prev, curr, body_t, body_next)` gives each next frame
+/// and is the only part timed. A non-finite frame ends the rollout with an error.
+fn roll(
+    g: &Garment,
+    motion: &Motion,
+    frames: usize,
+    mut step: impl FnMut(&[Vec3], &[Vec3], &[Vec3], &[Vec3]) -> Result<Vec<Vec3>, TrainError>,
+) -> Result<Rollout, TrainError> {
+    let n = frames.min(motion.n_frames().saturating_sub(1));
+    let x0 = g.skinned_at(motion, 0)?;
+    let mut cloth = vec![x0.clone()];
+    let mut body = vec![g.body_at(motion, 0)?];
+    let mut prev = x0.clone();
+    let mut curr = x0;
+    let mut secs = 0.0;
+    for f in 0..n {
+        let b_next = g.body_at(motion, f + 1)?;
+        let t0 = Instant::now();
+        let next = step(&prev, &curr, &body[f], &b_next)?;
+        secs += t0.elapsed().as_secs_f64();
+        if !next.iter().all(|p| p.iter().all(|c| c.is_finite())) {
+            return Err(TrainError::Invalid(format!("the rollout diverged (non-finite positions) at frame {}", f + 1)));
+        }
+        prev = std::mem::replace(&mut curr, next);
+        cloth.push(curr.clone());
+        body.push(b_next);
+    }
+    Ok(Rollout { cloth, body, infer_seconds: secs, steps: n })
 }
 
 /// Simulates `frames` frames of `motion` (fewer if the motion is shorter) with `model`
@@ -36,37 +68,21 @@ pub fn rollout(
     material: &Material,
 ) -> Result<Rollout, TrainError> {
     let model = if model.device.is_autodiff() { model.valid() } else { model.clone() };
-    let n = frames.min(motion.n_frames().saturating_sub(1));
-    let x0 = g.skinned_at(motion, 0)?;
-    let mut cloth = vec![x0.clone()];
-    let mut body = vec![g.body_at(motion, 0)?];
-    let mut prev = x0.clone();
-    let mut curr = x0;
     let accel = Vec3::from(g.scene.config.external_force.gravity) + external;
-    let mat = model_material(material);
-    let mut infer = 0.0;
-    for f in 0..n {
-        let b_next = g.body_at(motion, f + 1)?;
-        let t0 = Instant::now();
+    let material = model_material(material);
+    let dt = g.scene.dt();
+    roll(g, motion, frames, |prev, curr, body_t, body_next| {
         let frame = FrameState {
             rest: &g.rest,
-            prev: &prev,
-            curr: &curr,
-            material: mat,
+            prev,
+            curr,
+            material,
             accel,
-            dt: g.scene.dt(),
-            body: Some(BodyState { faces: g.body_faces(), curr: &body[f], next: &b_next }),
+            dt,
+            body: Some(BodyState { faces: g.body_faces(), curr: body_t, next: body_next }),
         };
-        let next = model.step(&frame)?;
-        infer += t0.elapsed().as_secs_f64();
-        if !next.iter().all(|p| p.iter().all(|c| c.is_finite())) {
-            return Err(TrainError::Invalid(format!("the rollout diverged (non-finite positions) at frame {}", f + 1)));
-        }
-        prev = std::mem::replace(&mut curr, next);
-        cloth.push(curr.clone());
-        body.push(b_next);
-    }
-    Ok(Rollout { cloth, body, infer_seconds: infer, steps: n })
+        Ok(model.step(&frame)?)
+    })
 }
 
 /// Simulates `frames` frames of `motion` with the reference solver instead of a network:
@@ -86,23 +102,9 @@ pub fn solver_rollout(
 ) -> Result<Rollout, TrainError> {
     let em = g.energy_model(energy.clone(), g.scene.dt())?;
     let opts = senc_energy::SolverOptions { max_iterations: iterations.max(1), ..Default::default() };
-    let n = frames.min(motion.n_frames().saturating_sub(1));
-    let x0 = g.skinned_at(motion, 0)?;
-    let mut cloth = vec![x0.clone()];
-    let mut body = vec![g.body_at(motion, 0)?];
-    let mut prev = x0.clone();
-    let mut curr = x0;
-    let mut secs = 0.0;
-    for f in 0..n {
-        let b_next = g.body_at(motion, f + 1)?;
-        let t0 = Instant::now();
-        let fe = em.frame(&curr, &prev, Some((&body[f], &b_next)))?;
-        let start: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| curr.clone());
-        let (next, _) = senc_energy::solve(&fe, &start, &opts)?;
-        secs += t0.elapsed().as_secs_f64();
-        prev = std::mem::replace(&mut curr, next);
-        cloth.push(curr.clone());
-        body.push(b_next);
-    }
-    Ok(Rollout { cloth, body, infer_seconds: secs, steps: n })
+    roll(g, motion, frames, |prev, curr, body_t, body_next| {
+        let fe = em.frame(curr, prev, Some((body_t, body_next)))?;
+        let start: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| curr.to_vec());
+        Ok(senc_energy::solve(&fe, &start, &opts)?.0)
+    })
 }
