@@ -127,6 +127,7 @@ fn model(o: &Opts) -> Result<()> {
         accel: Vec3::from(g.scene.config.external_force.gravity),
         dt: g.scene.dt(),
         body: Some(BodyState { faces: g.body_faces(), curr: &body_t, next: &body_n }),
+        pinned: &g.pinned,
     };
     let graph_config = cfg.model.graph_config();
     println!("threads: rayon {}; load average at start: {}", rayon_threads(), load());

@@ -18,6 +18,14 @@ pub enum EnergyError {
         /// Count given.
         got: usize,
     },
+    /// A pinned vertex index is not a garment vertex.
+    #[error("pinned vertex {vertex} does not exist: the garment has {n} vertices; pin vertices of the rest mesh")]
+    PinnedOutOfRange {
+        /// The index given.
+        vertex: usize,
+        /// Number of garment vertices.
+        n: usize,
+    },
     /// A position is NaN or infinite.
     #[error("{what}: vertex {vertex} is not finite ({value:?}); positions must be finite metres")]
     NonFinite {

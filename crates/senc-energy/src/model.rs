@@ -86,6 +86,8 @@ pub struct EnergyModel {
     /// The element gradient buffer, reused across evaluations (a concurrent evaluation that
     /// finds it taken allocates its own).
     scratch: Mutex<Vec<Vec3>>,
+    /// Pinned vertices (prescribed positions), one flag per vertex; empty when none is.
+    pinned: Vec<bool>,
 }
 
 impl EnergyModel {
@@ -149,7 +151,42 @@ impl EnergyModel {
             pattern,
             gather,
             scratch: Mutex::new(Vec::new()),
+            pinned: Vec::new(),
         })
+    }
+
+    /// Pins vertices `pinned`: their positions are prescribed by the caller (e.g. the skinned
+    /// garment's waist), so the gradient is zero there and the Newton systems leave them
+    /// in place (their rows and columns of the Hessian are replaced by the identity's).
+    /// The energy value still counts every term. An empty list unpins all.
+    pub fn with_pinned(mut self, pinned: &[usize]) -> Result<Self, EnergyError> {
+        let n = self.n_vertices();
+        if let Some(&v) = pinned.iter().find(|&&v| v >= n) {
+            return Err(EnergyError::PinnedOutOfRange { vertex: v, n });
+        }
+        self.pinned = if pinned.is_empty() { Vec::new() } else { vec![false; n] };
+        pinned.iter().for_each(|&v| self.pinned[v] = true);
+        Ok(self)
+    }
+
+    /// Whether vertex `i` is pinned.
+    pub fn is_pinned(&self, i: usize) -> bool {
+        self.pinned.get(i).copied().unwrap_or(false)
+    }
+
+    /// Replaces the rows and columns of pinned vertices by the identity's.
+    fn constrain(&self, h: &mut BlockSparse) {
+        if self.pinned.is_empty() {
+            return;
+        }
+        let pinned = &self.pinned;
+        h.par_rows_mut(|i, cols, row| {
+            for (b, &j) in row.iter_mut().zip(cols) {
+                if pinned[i] || pinned[j as usize] {
+                    *b = if i == j as usize { Matrix3::identity() } else { Matrix3::zeros() };
+                }
+            }
+        });
     }
 
     /// The config.
@@ -304,7 +341,20 @@ impl FrameEnergy<'_> {
     /// gathers them (fixed order) together with inertia, gravity, external force and
     /// collision; friction, self-collision and repulsion are added after. Every energy is
     /// summed in a fixed chunk order, so the result does not depend on thread scheduling.
+    ///
+    /// The gradient is zero at pinned vertices ([`EnergyModel::with_pinned`]).
     pub fn evaluate(&self, x: &[Vec3], grad: Option<&mut [Vec3]>) -> Result<Breakdown, EnergyError> {
+        match grad {
+            Some(g) if !self.model.pinned.is_empty() => {
+                let b = self.evaluate_free(x, Some(&mut *g))?;
+                g.iter_mut().zip(&self.model.pinned).filter(|(_, &p)| p).for_each(|(g, _)| *g = Vec3::zeros());
+                Ok(b)
+            }
+            g => self.evaluate_free(x, g),
+        }
+    }
+
+    fn evaluate_free(&self, x: &[Vec3], grad: Option<&mut [Vec3]>) -> Result<Breakdown, EnergyError> {
         let m = self.model;
         check_positions("x[t+1]", x, m.n_vertices())?;
         let Some(grad) = grad else {
@@ -499,6 +549,7 @@ impl FrameEnergy<'_> {
                 h.add_diagonal(i, &m);
             }
         }
+        self.model.constrain(h);
     }
 
     /// The same matrix as [`FrameEnergy::hessian`], assembled serially element by element
@@ -528,5 +579,6 @@ impl FrameEnergy<'_> {
                 h.add_diagonal(i, &m);
             }
         }
+        self.model.constrain(h);
     }
 }

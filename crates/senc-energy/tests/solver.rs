@@ -130,3 +130,34 @@ fn solve_is_bit_identical_across_thread_counts() {
         assert!(one == run(threads), "{threads} threads gave other positions than 1");
     }
 }
+
+/// A sheet pinned along one row hangs from it: the pinned vertices keep their prescribed
+/// positions exactly through Newton solves, their gradient is zero, and the free vertices
+/// fall under gravity.
+#[test]
+fn pinned_vertices_stay_where_they_are_put() {
+    let garment = sheet(8, 0.4, 0.3, 0.0, 1);
+    let x0 = garment.positions().to_vec();
+    let top = x0.iter().map(|p| p.z).fold(f64::MIN, f64::max);
+    let pinned: Vec<usize> = (0..x0.len()).filter(|&i| (x0[i].z - top).abs() < 1e-12).collect();
+    assert!(pinned.len() >= 8, "{} pinned", pinned.len());
+    let model = EnergyModel::new(&garment, &base_config(), None).unwrap().with_pinned(&pinned).unwrap();
+    let (mut prev, mut cur) = (x0.clone(), x0.clone());
+    for _ in 0..10 {
+        let e = model.frame(&cur, &prev, None).unwrap();
+        let guess = e.inertial_target().unwrap().to_vec();
+        let mut g = vec![Vec3::zeros(); guess.len()];
+        e.evaluate(&guess, Some(&mut g)).unwrap();
+        assert!(pinned.iter().all(|&i| g[i] == Vec3::zeros()));
+        assert!(g.iter().any(|v| v.norm() > 0.0));
+        let (next, _) = solve(&e, &guess, &SolverOptions { max_iterations: 5, ..Default::default() }).unwrap();
+        for &i in &pinned {
+            assert_eq!(next[i], guess[i], "pinned vertex {i} moved");
+        }
+        prev = std::mem::replace(&mut cur, next);
+    }
+    let free = (0..x0.len()).find(|i| !pinned.contains(i)).unwrap();
+    assert!(cur[free].y < x0[free].y - 1e-3, "free vertex did not fall: {:?} -> {:?}", x0[free], cur[free]);
+    let err = EnergyModel::new(&garment, &base_config(), None).unwrap().with_pinned(&[x0.len()]).unwrap_err();
+    assert!(err.to_string().contains("does not exist"), "{err}");
+}

@@ -8,7 +8,7 @@
 //! | columns | meaning | unit |
 //! |---|---|---|
 //! | 0..3 | velocity per frame: cloth `x[t] − x[t−1]`, body `b[t+1] − b[t]` | m / frame |
-//! | 3, 4 | vertex type one-hot: cloth, body | – |
+//! | 3, 4 | vertex type one-hot: free cloth `[1, 0]`; body and pinned cloth `[0, 1]` | – |
 //! | 5..8 | unit area-weighted vertex normal (cloth at `t`, body at `t+1`) | – |
 //! | 8 | `ln μ` (Lamé μ, HOOD's units); 0 for body | – |
 //! | 9 | `λ` (Lamé λ, HOOD's units, sampled uniformly so not logged); 0 for body | – |
@@ -181,6 +181,9 @@ pub struct FrameState<'a> {
     pub dt: f64,
     /// The body, if the scene has one.
     pub body: Option<BodyState<'a>>,
+    /// Pinned cloth vertices (prescribed positions, e.g. a skirt's waist), sorted; they are
+    /// typed as kinematic nodes (type one-hot `[0, 1]`, like the body). Empty: none.
+    pub pinned: &'a [usize],
 }
 
 /// One edge set: directed edges and their raw features.
@@ -480,6 +483,7 @@ fn node_features(frame: &FrameState<'_>) -> Vec<f64> {
     let m = frame.material;
     let g = frame.accel;
     for i in 0..n_cloth {
+        let kinematic = frame.pinned.binary_search(&i).is_ok();
         let v = frame.curr[i] - frame.prev[i];
         let n = normals[i];
         // An isolated vertex has no mass; clamp so that the log stays finite.
@@ -488,8 +492,8 @@ fn node_features(frame: &FrameState<'_>) -> Vec<f64> {
             v.x,
             v.y,
             v.z,
-            1.0,
-            0.0,
+            if kinematic { 0.0 } else { 1.0 },
+            if kinematic { 1.0 } else { 0.0 },
             n.x,
             n.y,
             n.z,

@@ -30,7 +30,7 @@
 //! let x = rest.positions().to_vec();
 //! let frame = FrameState {
 //!     rest: &rest, prev: &x, curr: &x, material: Material::default(),
-//!     accel: Vec3::new(0.0, -9.81, 0.0), dt: 1.0 / 30.0, body: None,
+//!     accel: Vec3::new(0.0, -9.81, 0.0), dt: 1.0 / 30.0, body: None, pinned: &[],
 //! };
 //! let config = ModelConfig::small_cpu().with_blocks(1);
 //! let model = Model::new(config, GraphConfig::default(), 7, &Device::flex());

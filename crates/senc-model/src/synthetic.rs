@@ -135,6 +135,7 @@ impl SyntheticScene {
                 curr: &self.body_curr,
                 next: &self.body_next,
             }),
+            pinned: &[],
         }
     }
 }

@@ -480,3 +480,19 @@ fn zero_output_network_takes_the_mean_step_and_still_learns() {
     let last: Vec<f64> = visitor.norms.iter().rev().take(2).map(|(_, n)| n.unwrap_or(0.0)).collect();
     assert!(last.iter().all(|&n| n > 0.0 && n.is_finite()), "decoder output layer gradients {last:?}");
 }
+
+/// Pinned cloth vertices are typed as kinematic nodes (`[0, 1]`, like the body); the
+/// others stay free cloth (`[1, 0]`).
+#[test]
+fn pinned_cloth_vertices_are_kinematic_nodes() {
+    let s = scene();
+    let pinned = [0usize, 3];
+    let frame = FrameState { pinned: &pinned, ..s.frame() };
+    let g = GraphInputs::build(&frame, &GraphConfig::default()).unwrap();
+    let f = senc_model::graph::NODE_FEATURES;
+    for i in 0..s.curr.len() {
+        let ty = [g.nodes[i * f + 3], g.nodes[i * f + 4]];
+        let want = if pinned.contains(&i) { [0.0, 1.0] } else { [1.0, 0.0] };
+        assert_eq!(ty, want, "vertex {i}");
+    }
+}

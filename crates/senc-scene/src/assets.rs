@@ -130,6 +130,22 @@ impl GarmentAsset {
             .collect()
     }
 
+    /// The vertices of the named loops, sorted and without repeats (pinned vertices).
+    pub fn loop_vertices(&self, names: &[String]) -> Result<Vec<usize>, SceneError> {
+        let mut out = Vec::new();
+        for n in names {
+            let l = self.loops.iter().find(|l| &l.name == n).ok_or_else(|| SceneError::NoSuchLoop {
+                garment: self.name.clone(),
+                name: n.clone(),
+                available: self.loop_names(),
+            })?;
+            out.extend(l.vertices.iter().map(|&v| v as usize));
+        }
+        out.sort_unstable();
+        out.dedup();
+        Ok(out)
+    }
+
     /// Names of the loops.
     pub fn loop_names(&self) -> Vec<String> {
         self.loops.iter().map(|l| l.name.clone()).collect()

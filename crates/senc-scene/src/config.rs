@@ -39,6 +39,11 @@ pub struct SceneConfig {
     /// stay open. Names are listed in `data/README.md` per garment.
     #[serde(default)]
     pub close_holes: Vec<String>,
+    /// Names of boundary loops whose vertices are pinned: they follow the skinned garment
+    /// exactly (prescribed positions, no dynamics), as HOOD pins skirt waists. A skirt
+    /// fitted as wide as the hips has nothing else holding it up. Default: none.
+    #[serde(default)]
+    pub pin: Vec<String>,
     /// Simulation frame rate, frames/s (motions are resampled to it). Default 30.
     #[serde(default = "default_fps")]
     pub fps: f64,

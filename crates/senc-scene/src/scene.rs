@@ -72,6 +72,7 @@ impl Scene {
         let garment = GarmentAsset::load(&config.garment)?;
         garment.weights.validate(garment.positions.len(), body.skeleton.len())?;
         garment.hole_selection(&config.close_holes)?;
+        garment.loop_vertices(&config.pin)?;
         let load = |paths: &[std::path::PathBuf]| -> Result<Vec<Motion>, SceneError> {
             paths
                 .iter()
@@ -136,6 +137,11 @@ impl Scene {
     /// The holes the config closes, as a senc-geom selection.
     pub fn hole_selection(&self) -> Result<HoleSelection, SceneError> {
         self.garment.hole_selection(&self.config.close_holes)
+    }
+
+    /// The garment vertices the config pins (`[scene] pin`), sorted.
+    pub fn pinned_vertices(&self) -> Result<Vec<usize>, SceneError> {
+        self.garment.loop_vertices(&self.config.pin)
     }
 
     /// Time step, s.

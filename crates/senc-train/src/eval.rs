@@ -228,7 +228,8 @@ fn error_vs_runtime(
         let (prev, curr) = (&r.cloth[s - 1], &r.cloth[s]);
         let (bt, bn) = (&r.body[s], &r.body[s + 1]);
         let fe = em.frame(curr, prev, Some((bt, bn)))?;
-        let x0: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| curr.clone());
+        let mut x0: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| curr.clone());
+        g.pin_from(&mut x0, &r.cloth[s + 1]);
         let conv = SolverOptions { max_iterations: cfg.eval.converged_iterations, ..Default::default() };
         let (_, rep) = solve(&fe, &x0, &conv)?;
         let e_star = rep.energy;
@@ -247,8 +248,10 @@ fn error_vs_runtime(
             accel,
             dt,
             body: Some(BodyState { faces: g.body_faces(), curr: bt, next: bn }),
+            pinned: &g.pinned,
         };
-        let x = model.step(&frame)?;
+        let mut x = model.step(&frame)?;
+        g.pin_from(&mut x, &r.cloth[s + 1]);
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         let e = fe.evaluate(&x, None)?.total;
         let last = budgets.len();
@@ -463,7 +466,8 @@ pub fn one_step_probe(
             (g.skinned_at(motion, f - 1)?, g.skinned_at(motion, f)?, g.skinned_at(motion, f + 1)?);
         let (bt, bn) = (g.body_at(motion, f)?, g.body_at(motion, f + 1)?);
         let fe = em.frame(&curr, &prev, Some((&bt, &bn)))?;
-        let flight: Vec<Vec3> = curr.iter().zip(&prev).map(|(c, p)| c * 2.0 - p + accel * dt * dt).collect();
+        let mut flight: Vec<Vec3> = curr.iter().zip(&prev).map(|(c, p)| c * 2.0 - p + accel * dt * dt).collect();
+        g.pin_from(&mut flight, &skinned);
         let (x_star, _) = solve(&fe, &flight, &SolverOptions { max_iterations: converged, ..Default::default() })?;
         let b_star = fe.evaluate(&x_star, None)?;
         add(&mut reference, &b_star, 0.0);
@@ -480,8 +484,11 @@ pub fn one_step_probe(
                 accel,
                 dt,
                 body: Some(BodyState { faces: g.body_faces(), curr: &bt, next: &bn }),
+                pinned: &g.pinned,
             };
-            answers.push(m.step(&frame)?);
+            let mut x = m.step(&frame)?;
+            g.pin_from(&mut x, &answers[1]);
+            answers.push(x);
         }
         for (row, x) in rows.iter_mut().zip(&answers) {
             add(row, &fe.evaluate(x, None)?, b_star.total);

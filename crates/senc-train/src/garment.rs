@@ -24,6 +24,8 @@ pub struct Garment {
     proxy_weights: SkinWeights,
     /// Proxy body mesh (kept vertices, faces whose three vertices are kept).
     pub proxy_mesh: TriMesh,
+    /// Pinned garment vertices (`[scene] pin`), sorted: they follow the skinned garment.
+    pub pinned: Vec<usize>,
 }
 
 impl Garment {
@@ -102,7 +104,8 @@ impl Garment {
         }
         let proxy_weights = SkinWeights::from_lists(&pl)?;
         let proxy_mesh = TriMesh::new(pr.clone(), faces)?;
-        Ok(Self { scene, rest, open_holes, proxy_rest: pr, proxy_weights, proxy_mesh })
+        let pinned = scene.pinned_vertices()?;
+        Ok(Self { scene, rest, open_holes, proxy_rest: pr, proxy_weights, proxy_mesh, pinned })
     }
 
     /// Garment name.
@@ -126,7 +129,23 @@ impl Garment {
         energy.dt = dt;
         energy.gravity = self.scene.config.external_force.gravity;
         energy.self_collision.open_holes = self.open_holes.clone();
-        Ok(senc_energy::EnergyModel::new(&self.rest, &energy, Some(&self.proxy_mesh))?)
+        Ok(senc_energy::EnergyModel::new(&self.rest, &energy, Some(&self.proxy_mesh))?.with_pinned(&self.pinned)?)
+    }
+
+    /// Copies the pinned vertices' positions from `prescribed` into `x`.
+    pub fn pin_from(&self, x: &mut [Vec3], prescribed: &[Vec3]) {
+        for &i in &self.pinned {
+            x[i] = prescribed[i];
+        }
+    }
+
+    /// Moves the pinned vertices of `x` to the skinned garment at `frame` of `motion` (no
+    /// skinning at all when nothing is pinned).
+    pub fn pin_at(&self, x: &mut [Vec3], motion: &Motion, frame: usize) -> Result<(), TrainError> {
+        if !self.pinned.is_empty() {
+            self.pin_from(x, &self.skinned_at(motion, frame)?);
+        }
+        Ok(())
     }
 
     /// The garment skinned (no dynamics) to `frame` of `motion`, m.

@@ -27,13 +27,15 @@ pub struct Rollout {
 }
 
 /// The rollout loop shared by the network and the solver: the garment starts skinned at
-/// frame 0 with zero velocity; `step(prev, curr, body_t, body_next)` gives each next frame
-/// and is the only part timed. A non-finite frame ends the rollout with an error.
+/// frame 0 with zero velocity; `step(prev, curr, body_t, body_next, skinned_next)` gives
+/// each next frame and is the only part timed (`skinned_next` is the skinned garment at
+/// the next frame when the garment has pinned vertices, whose positions are then copied
+/// from it into the step's answer). A non-finite frame ends the rollout with an error.
 fn roll(
     g: &Garment,
     motion: &Motion,
     frames: usize,
-    mut step: impl FnMut(&[Vec3], &[Vec3], &[Vec3], &[Vec3]) -> Result<Vec<Vec3>, TrainError>,
+    mut step: impl FnMut(&[Vec3], &[Vec3], &[Vec3], &[Vec3], Option<&[Vec3]>) -> Result<Vec<Vec3>, TrainError>,
 ) -> Result<Rollout, TrainError> {
     let n = frames.min(motion.n_frames().saturating_sub(1));
     let x0 = g.skinned_at(motion, 0)?;
@@ -44,9 +46,13 @@ fn roll(
     let mut secs = 0.0;
     for f in 0..n {
         let b_next = g.body_at(motion, f + 1)?;
+        let pins = if g.pinned.is_empty() { None } else { Some(g.skinned_at(motion, f + 1)?) };
         let t0 = Instant::now();
-        let next = step(&prev, &curr, &body[f], &b_next)?;
+        let mut next = step(&prev, &curr, &body[f], &b_next, pins.as_deref())?;
         secs += t0.elapsed().as_secs_f64();
+        if let Some(p) = &pins {
+            g.pin_from(&mut next, p);
+        }
         if !next.iter().all(|p| p.iter().all(|c| c.is_finite())) {
             return Err(TrainError::Invalid(format!("the rollout diverged (non-finite positions) at frame {}", f + 1)));
         }
@@ -71,7 +77,7 @@ pub fn rollout(
     let accel = Vec3::from(g.scene.config.external_force.gravity) + external;
     let material = model_material(material);
     let dt = g.scene.dt();
-    roll(g, motion, frames, |prev, curr, body_t, body_next| {
+    roll(g, motion, frames, |prev, curr, body_t, body_next, _| {
         let frame = FrameState {
             rest: &g.rest,
             prev,
@@ -80,6 +86,7 @@ pub fn rollout(
             accel,
             dt,
             body: Some(BodyState { faces: g.body_faces(), curr: body_t, next: body_next }),
+            pinned: &g.pinned,
         };
         Ok(model.step(&frame)?)
     })
@@ -102,9 +109,12 @@ pub fn solver_rollout(
 ) -> Result<Rollout, TrainError> {
     let em = g.energy_model(energy.clone(), g.scene.dt())?;
     let opts = senc_energy::SolverOptions { max_iterations: iterations.max(1), ..Default::default() };
-    roll(g, motion, frames, |prev, curr, body_t, body_next| {
+    roll(g, motion, frames, |prev, curr, body_t, body_next, pins| {
         let fe = em.frame(curr, prev, Some((body_t, body_next)))?;
-        let start: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| curr.to_vec());
+        let mut start: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| curr.to_vec());
+        if let Some(p) = pins {
+            g.pin_from(&mut start, p);
+        }
         Ok(senc_energy::solve(&fe, &start, &opts)?.0)
     })
 }
