@@ -154,6 +154,7 @@ fn frame_state<'a>(
         accel,
         dt,
         body: Some(BodyState { faces: g.body_faces(), curr: body_t, next: body_n }),
+        pinned: &g.pinned,
     }
 }
 
@@ -167,6 +168,28 @@ pub fn scene_material(g: &Garment) -> Result<Material, TrainError> {
     let mc = &g.scene.config.material;
     let (mu, lambda) = mc.lame()?;
     Ok(Material { mu, lambda, thickness: mc.thickness, bending_stiffness: mc.bending, density: mc.density })
+}
+
+/// The Newton-target surrogate gradient `M/Δt² (x − x*)`, N, where `x*` is `x` after
+/// `iterations` Newton iterations on `fe` (see [`crate::config::TrainConfig::target_iterations`]).
+/// Where the solver makes no progress (`x* = x`) the gradient is zero.
+pub fn newton_target_gradient(
+    fe: &senc_energy::FrameEnergy<'_>,
+    x: &[Vec3],
+    dt: f64,
+    iterations: usize,
+    cg_iterations: usize,
+) -> Result<Vec<Vec3>, TrainError> {
+    let options = senc_energy::SolverOptions {
+        max_iterations: iterations,
+        cg_max_iterations: cg_iterations,
+        cg_tolerance: 1e-3,
+        max_backtracks: 20,
+        ..Default::default()
+    };
+    let (target, _) = senc_energy::solve(fe, x, &options)?;
+    let inv_dt2 = 1.0 / (dt * dt);
+    Ok(x.iter().zip(&target).zip(fe.model().masses()).map(|((x, t), m)| (x - t) * (m * inv_dt2)).collect())
 }
 
 fn finite(v: &[Vec3]) -> bool {
@@ -460,7 +483,10 @@ impl Trainer {
         let dt = if seq.first_step { g.scene.config.first_step_dt } else { g.scene.dt() };
         let frame = frame_state(&g, &seq, &body_t, &body_n, accel, dt);
         let graph = GraphInputs::build(&frame, &self.model.graph)?;
-        let (accel_t, next) = self.model.predict(&graph, &frame)?;
+        let (accel_t, mut next) = self.model.predict(&graph, &frame)?;
+        // Pinned vertices follow the skinned garment (their energy gradient is zero, so the
+        // network's output there gets no training signal).
+        g.pin_at(&mut next, motion, seq.frame + 1)?;
         let key = self.sequence_id.wrapping_mul(2) + u64::from(seq.first_step);
         if self.energy_cache.as_ref().is_none_or(|(k, _)| *k != key) {
             let mut ec = self.config.energy_for(phase, seq.material, seq.external);
@@ -471,13 +497,17 @@ impl Trainer {
         }
         let em = &self.energy_cache.as_ref().expect("built above").1;
         let mut grad = vec![Vec3::zeros(); next.len()];
-        let evaluated = if finite(&next) {
-            em.frame(&seq.curr, &seq.prev, Some((&body_t, &body_n)))
-                .and_then(|fe| fe.evaluate(&next, Some(&mut grad)))
-                .ok()
-        } else {
-            None
-        };
+        let fe = if finite(&next) { em.frame(&seq.curr, &seq.prev, Some((&body_t, &body_n))).ok() } else { None };
+        let evaluated = fe.as_ref().and_then(|fe| fe.evaluate(&next, Some(&mut grad)).ok());
+        if let (Some(fe), Some(b)) = (&fe, &evaluated) {
+            let t = &self.config.train;
+            if t.target_iterations > 0 && b.total.is_finite() && finite(&grad) {
+                match newton_target_gradient(fe, &next, dt, t.target_iterations, t.target_cg_iterations) {
+                    Ok(g) => grad = g,
+                    Err(e) => tracing::warn!(error = %e, "Newton target failed: plain energy gradient used"),
+                }
+            }
+        }
         let lr = self.config.train.lr(k);
         let mut report = StepReport {
             phase,
