@@ -18,8 +18,9 @@ use crate::ModelError;
 pub const WEIGHTS_FILE: &str = "weights.bpk";
 /// File name of the MessagePack metadata inside a checkpoint directory.
 pub const META_FILE: &str = "model.msgpack";
-/// Version of [`META_FILE`]'s layout; bumped when it changes.
-pub const META_VERSION: u32 = 1;
+/// Version of [`META_FILE`]'s layout and of the output's meaning; bumped when either
+/// changes (2: the network outputs an acceleration, m/s², not a displacement).
+pub const META_VERSION: u32 = 2;
 
 #[derive(Serialize, Deserialize)]
 struct Meta {

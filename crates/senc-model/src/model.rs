@@ -57,9 +57,12 @@ impl Model {
         GraphTensors::new(graph, &self.normalizers, &self.device)
     }
 
-    /// The predicted response per cloth vertex in metres (the cloth's own acceleration term
-    /// beyond gravity and the external force, `Δt²` times it), so that
-    /// `x[t+1] = 2 x[t] − x[t−1] + Δt² (g + a_ext) + forward(..)`.
+    /// The predicted response acceleration per cloth vertex, m/s²: the cloth's own
+    /// acceleration beyond gravity and the external force (stretching, bending, contact), so
+    /// that `x[t+1] = 2 x[t] − x[t−1] + Δt² (g + a_ext + forward(..))`. An acceleration, as in
+    /// HOOD, rather than a displacement: the same output is right for the long first step
+    /// and for ordinary frames (a displacement normalised on 1/30 s frames is 9× too small
+    /// to hold cloth up over a 0.1 s step).
     ///
     /// # Shapes
     /// `[n_cloth, 3]`, f32, on this model's device (tracked when the device is autodiff).
@@ -91,12 +94,12 @@ impl Model {
     pub fn predict_positions(&self, graph: &GraphInputs, frame: &crate::FrameState<'_>) -> Tensor<2> {
         let base: Vec<f64> = Self::free_flight(frame).iter().flat_map(|b| [b.x, b.y, b.z]).collect();
         let base = f32_tensor(&base, [frame.curr.len(), 3], &self.device);
-        base + self.forward(graph)
+        base + self.forward(graph) * (frame.dt * frame.dt) as f32
     }
 
-    /// One training prediction: the tracked response tensor `r` `[n_cloth, 3]` and the next
-    /// positions in f64, `x[t+1] = 2 x[t] − x[t−1] + Δt² (g + a_ext) + r` (the f32 `r` read
-    /// back once).
+    /// One training prediction: the tracked response displacement `r = Δt² a` `[n_cloth, 3]`
+    /// (`a` from [`Model::forward`]) and the next positions in f64,
+    /// `x[t+1] = 2 x[t] − x[t−1] + Δt² (g + a_ext) + r` (the f32 `r` read back once).
     ///
     /// Feed `∂E/∂x[t+1]` at those positions to [`crate::surrogate_backward`] together with the
     /// tensor: `x[t+1]` and `a` differ by a constant, so they have the same parameter gradient.
@@ -105,7 +108,7 @@ impl Model {
         graph: &GraphInputs,
         frame: &crate::FrameState<'_>,
     ) -> Result<(Tensor<2>, Vec<Vec3>), ModelError> {
-        let accel = self.forward(graph);
+        let accel = self.forward(graph) * (frame.dt * frame.dt) as f32;
         let a = tensor_to_vec3(accel.clone().detach())?;
         if a.len() != frame.curr.len() {
             return Err(ModelError::LengthMismatch { what: "cloth x[t]", got: frame.curr.len(), expected: a.len() });
@@ -120,6 +123,7 @@ impl Model {
         let graph = self.build_graph(frame)?;
         let accel = if self.device.is_autodiff() { self.valid().forward(&graph) } else { self.forward(&graph) };
         let accel = tensor_to_vec3(accel)?;
-        Ok(Self::free_flight(frame).into_iter().zip(accel).map(|(b, a)| b + a).collect())
+        let dt2 = frame.dt * frame.dt;
+        Ok(Self::free_flight(frame).into_iter().zip(accel).map(|(b, a)| b + a * dt2).collect())
     }
 }

@@ -13,8 +13,8 @@
 //! 3. `x[t+1]` (f64, detached) becomes the next state.
 //!
 //! Warm-up iterations before phase 1 only feed the normalisers (inputs from graphs of
-//! skinned states, outputs from the skinned garment's acceleration term plus
-//! `Δt² (g + a_ext)`). Phase 1 trains without the self-collision, area and repulsion
+//! skinned states, outputs from the skinned garment's acceleration beyond gravity,
+//! `(x̂[t+1] − 2x̂[t] + x̂[t−1]) / Δt² − g`). Phase 1 trains without the self-collision, area and repulsion
 //! energies; phase 2 starts from phase 1's weights (saved in `OUT/phase1`) with a fresh Adam
 //! state and all energies of `[energy]`. A step whose energy, energy gradient or parameter
 //! gradient is not finite is skipped (no optimiser step), counted, and ends its sequence.
@@ -435,16 +435,17 @@ impl Trainer {
         let frame = frame_state(g, &seq, &body_t, &body_n, accel, dt);
         let graph = GraphInputs::build(&frame, &self.model.graph)?;
         self.model.normalizers.update_inputs(&graph);
-        // The response the skinned garment would need on top of free flight under gravity
-        // alone (the random external force is left out so it cannot bias the mean).
+        // The response acceleration the skinned garment would need on top of free flight
+        // under gravity alone, m/s² (the random external force is left out so it cannot
+        // bias the mean).
         let next = g.skinned_at(motion, seq.frame + 1)?;
-        let forcing = self.gravity(g) * (dt * dt);
+        let (g_acc, inv_dt2) = (self.gravity(g), 1.0 / (dt * dt));
         let rows: Vec<f64> = next
             .iter()
             .zip(&seq.curr)
             .zip(&seq.prev)
             .flat_map(|((n, c), p)| {
-                let a = n - c * 2.0 + p - forcing;
+                let a = (n - c * 2.0 + p) * inv_dt2 - g_acc;
                 [a.x, a.y, a.z]
             })
             .collect();
