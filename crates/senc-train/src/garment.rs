@@ -132,6 +132,25 @@ impl Garment {
         Ok(senc_energy::EnergyModel::new(&self.rest, &energy, Some(&self.proxy_mesh))?.with_pinned(&self.pinned)?)
     }
 
+    /// Makes a skinned state usable as a simulation start: linear blend skinning pushes
+    /// loose garments into the body where limbs meet the torso, and a start with cloth
+    /// centimetres deep in the body carries hundreds to millions of joules of collision
+    /// energy whose removal in one step flings the cloth off at metres per second (and
+    /// teaches a network to do so). Every vertex of `curr` inside the proxy body at `body_t`
+    /// or closer than 5 mm to it is pushed out to 5 mm clearance (with smoothing,
+    /// [`senc_scene::push_out`]); `prev` moves by the same offsets, so velocities are kept.
+    /// Pinned vertices stay where they are. Returns the number of vertices moved first.
+    pub fn clean_start(&self, prev: &mut [Vec3], curr: &mut [Vec3], body_t: &[Vec3]) -> Result<usize, TrainError> {
+        let q = senc_scene::BodyQuery::new(body_t, self.body_faces())?;
+        let before = curr.to_vec();
+        let moved = senc_scene::push_out(curr, self.rest.faces(), &q, senc_scene::PushOut::default());
+        self.pin_from(curr, &before);
+        for ((p, c), b) in prev.iter_mut().zip(curr.iter()).zip(&before) {
+            *p += c - b;
+        }
+        Ok(moved)
+    }
+
     /// Copies the pinned vertices' positions from `prescribed` into `x`.
     pub fn pin_from(&self, x: &mut [Vec3], prescribed: &[Vec3]) {
         for &i in &self.pinned {

@@ -397,6 +397,9 @@ impl Trainer {
         } else {
             (g.skinned_at(motion, frame - 1)?, g.skinned_at(motion, frame)?)
         };
+        if t.clean_starts && !first {
+            g.clean_start(&mut prev, &mut curr, &g.body_at(motion, frame)?)?;
+        }
         if t.noise_std > 0.0 {
             let normal = Normal::new(0.0, t.noise_std).map_err(|e| TrainError::Invalid(e.to_string()))?;
             for (p, c) in prev.iter_mut().zip(curr.iter_mut()) {
