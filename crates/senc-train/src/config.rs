@@ -61,9 +61,10 @@ pub struct TrainConfig {
     pub max_start_penetration: f64,
     /// Windows drawn at most per sequence for `max_start_penetration`.
     pub start_tries: usize,
-    /// Push each mid-motion start's cloth out of the body before use (see
-    /// `Garment::clean_start`; 5 mm clearance, velocities kept). Default true.
-    pub clean_starts: bool,
+    /// Newton iterations that relax each mid-motion start out of the body before use (see
+    /// `Garment::relax_start`: the scene's material, phase-1 energy, zero velocity, static
+    /// body; the skinned velocity is kept). Default 4; 0 uses the skinned state as it is.
+    pub relax_start_iterations: usize,
     /// Draw each sequence's material from HOOD's ranges (else the scene's material).
     pub random_material: bool,
     /// Largest magnitude of the random external acceleration per sequence, m/s² (SENC: 10).
@@ -113,7 +114,7 @@ impl Default for TrainConfig {
             first_step_probability: 0.1,
             max_start_penetration: 0.005,
             start_tries: 20,
-            clean_starts: true,
+            relax_start_iterations: 4,
             random_material: true,
             external_max: 10.0,
             body_margin: 0.12,

@@ -413,8 +413,8 @@ pub struct ProbeRow {
 }
 
 /// One-step probe on the training distribution: from `states` skinned states `(x[t−1],
-/// x[t])` of the config's training motions (cleaned as training starts are when `[train]
-/// clean_starts` is on; the scene's material, gravity, no random
+/// x[t])` of the config's training motions (relaxed as training starts are when `[train]
+/// relax_start_iterations` > 0; the scene's material, gravity, no random
 /// force), the energy of the next frame predicted by free flight `2x[t] − x[t−1] + Δt² g`,
 /// by the skinned garment, by the network of `checkpoint` (if given) and by the reference
 /// solver at `budgets`, each as a gap above the converged solve (`converged` iterations).
@@ -466,8 +466,8 @@ pub fn one_step_probe(
         let (mut prev, mut curr, skinned) =
             (g.skinned_at(motion, f - 1)?, g.skinned_at(motion, f)?, g.skinned_at(motion, f + 1)?);
         let (bt, bn) = (g.body_at(motion, f)?, g.body_at(motion, f + 1)?);
-        if cfg.train.clean_starts {
-            g.clean_start(&mut prev, &mut curr, &bt)?;
+        if cfg.train.relax_start_iterations > 0 {
+            g.relax_start(&em, &mut prev, &mut curr, &bt, cfg.train.relax_start_iterations)?;
         }
         let fe = em.frame(&curr, &prev, Some((&bt, &bn)))?;
         let mut flight: Vec<Vec3> = curr.iter().zip(&prev).map(|(c, p)| c * 2.0 - p + accel * dt * dt).collect();

@@ -132,23 +132,33 @@ impl Garment {
         Ok(senc_energy::EnergyModel::new(&self.rest, &energy, Some(&self.proxy_mesh))?.with_pinned(&self.pinned)?)
     }
 
-    /// Makes a skinned state usable as a simulation start: linear blend skinning pushes
-    /// loose garments into the body where limbs meet the torso, and a start with cloth
-    /// centimetres deep in the body carries hundreds to millions of joules of collision
-    /// energy whose removal in one step flings the cloth off at metres per second (and
-    /// teaches a network to do so). Every vertex of `curr` inside the proxy body at `body_t`
-    /// or closer than 5 mm to it is pushed out to 5 mm clearance (with smoothing,
-    /// [`senc_scene::push_out`]); `prev` moves by the same offsets, so velocities are kept.
-    /// Pinned vertices stay where they are. Returns the number of vertices moved first.
-    pub fn clean_start(&self, prev: &mut [Vec3], curr: &mut [Vec3], body_t: &[Vec3]) -> Result<usize, TrainError> {
-        let q = senc_scene::BodyQuery::new(body_t, self.body_faces())?;
-        let before = curr.to_vec();
-        let moved = senc_scene::push_out(curr, self.rest.faces(), &q, senc_scene::PushOut::default());
-        self.pin_from(curr, &before);
-        for ((p, c), b) in prev.iter_mut().zip(curr.iter()).zip(&before) {
-            *p += c - b;
+    /// Makes a skinned state usable as a simulation start. Linear blend skinning pushes
+    /// loose garments into the body where limbs meet the torso (100-380 of the t-shirt's
+    /// vertices on every frame of the training clips), and a start with cloth centimetres
+    /// deep in the body carries up to millions of joules of collision energy whose removal
+    /// in one step flings the cloth off at metres per second (and teaches a network to do
+    /// so). Pushing vertices out geometrically distorts the garment (1 kJ of stretching on
+    /// the t-shirt), so the start is relaxed physically instead: `iterations` Newton
+    /// iterations of `em`'s energy at zero velocity against the static body at `body_t`
+    /// (the garment settles out of the body and its skinning strain relaxes), and `prev`
+    /// moves by the same offsets as `curr`, so the skinned velocity is kept. `em` should be a
+    /// phase-1 energy of this garment ([`Garment::energy_model`]); pinned vertices stay.
+    pub fn relax_start(
+        &self,
+        em: &senc_energy::EnergyModel,
+        prev: &mut [Vec3],
+        curr: &mut [Vec3],
+        body_t: &[Vec3],
+        iterations: usize,
+    ) -> Result<(), TrainError> {
+        let fe = em.frame(curr, curr, Some((body_t, body_t)))?;
+        let options = senc_energy::SolverOptions { max_iterations: iterations, ..Default::default() };
+        let (x, _) = senc_energy::solve(&fe, curr, &options)?;
+        for ((p, c), x) in prev.iter_mut().zip(curr.iter_mut()).zip(x) {
+            *p += x - *c;
+            *c = x;
         }
-        Ok(moved)
+        Ok(())
     }
 
     /// Copies the pinned vertices' positions from `prescribed` into `x`.

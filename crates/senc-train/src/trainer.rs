@@ -134,6 +134,8 @@ pub struct Trainer {
     pub progress: Progress,
     out: PathBuf,
     energy_cache: Option<(u64, EnergyModel)>,
+    /// Per garment: the phase-1 energy with the scene's material that relaxes starts.
+    relax_energy: Vec<Option<EnergyModel>>,
     sequence_id: u64,
 }
 
@@ -240,6 +242,7 @@ impl Trainer {
             progress: Progress { phase: 1, ..Default::default() },
             out: out.to_path_buf(),
             energy_cache: None,
+            relax_energy: Vec::new(),
             sequence_id: 0,
         })
     }
@@ -297,6 +300,7 @@ impl Trainer {
             progress,
             out: out.to_path_buf(),
             energy_cache: None,
+            relax_energy: Vec::new(),
             sequence_id: u64::MAX / 2,
         })
     }
@@ -397,8 +401,16 @@ impl Trainer {
         } else {
             (g.skinned_at(motion, frame - 1)?, g.skinned_at(motion, frame)?)
         };
-        if t.clean_starts && !first {
-            g.clean_start(&mut prev, &mut curr, &g.body_at(motion, frame)?)?;
+        if t.relax_start_iterations > 0 && !first {
+            if self.relax_energy.len() <= gi {
+                self.relax_energy.resize_with(self.garments.len(), || None);
+            }
+            if self.relax_energy[gi].is_none() {
+                let ec = self.config.energy_for(1, scene_material(g)?, [0.0; 3]);
+                self.relax_energy[gi] = Some(g.energy_model(ec, g.scene.dt())?);
+            }
+            let em = self.relax_energy[gi].as_ref().expect("built above");
+            g.relax_start(em, &mut prev, &mut curr, &g.body_at(motion, frame)?, t.relax_start_iterations)?;
         }
         if t.noise_std > 0.0 {
             let normal = Normal::new(0.0, t.noise_std).map_err(|e| TrainError::Invalid(e.to_string()))?;

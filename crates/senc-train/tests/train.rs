@@ -171,39 +171,33 @@ fn pinned_waist_follows_the_body_and_holds_the_skirt() {
     assert!(mean_drop < 0.1, "the pinned skirt fell {mean_drop} m on average");
 }
 
-/// `Garment::clean_start` on skinned t-shirt states whose cloth is inside the body (linear
-/// blend skinning artefacts): afterwards at most a few pinched vertices are inside the
-/// proxy body (a twentieth of those before) and every vertex keeps its velocity
-/// `x[t] − x[t−1]`.
+/// `Garment::relax_start` on skinned t-shirt states whose cloth is inside the body (linear
+/// blend skinning artefacts): afterwards fewer vertices are inside the proxy body, the
+/// static energy of the frame is far lower, and every vertex keeps its velocity `x[t] − x[t−1]`.
 #[test]
-fn clean_start_leaves_no_cloth_inside_and_keeps_velocities() {
+fn relaxed_start_leaves_the_body_and_keeps_velocities() {
     use senc_train::garment::Garment;
+    use senc_train::trainer::scene_material;
     let cfg = senc_train::RunConfig::read(root().join("configs/tshirt.toml")).unwrap();
     let g = Garment::load(&senc_train::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
+    let em = g.energy_model(cfg.energy_for(1, scene_material(&g).unwrap(), [0.0; 3]), g.scene.dt()).unwrap();
     let motion = &g.scene.train[0];
-    let mut tested = 0;
-    for f in (20..motion.n_frames() - 1).step_by(15) {
-        let body = g.body_at(motion, f).unwrap();
-        let q = senc_scene::BodyQuery::new(&body, g.body_faces()).unwrap();
-        let (mut prev, mut curr) = (g.skinned_at(motion, f - 1).unwrap(), g.skinned_at(motion, f).unwrap());
-        if q.inside(&curr).is_empty() {
-            continue;
-        }
-        let v0: Vec<_> = curr.iter().zip(&prev).map(|(c, p)| c - p).collect();
-        let moved = g.clean_start(&mut prev, &mut curr, &body).unwrap();
-        let before = q.inside(&g.skinned_at(motion, f).unwrap()).len();
-        let after = q.inside(&curr).len();
-        assert!(moved > 0);
-        // Where the arm meets the torso a vertex pushed out of one can land in the other;
-        // a handful of such pinched vertices may remain (0-15 of 100-380 on this clip).
-        assert!(after * 20 <= before && after * 200 <= curr.len(), "frame {f}: inside {before} -> {after}");
-        for (i, ((c, p), v)) in curr.iter().zip(&prev).zip(&v0).enumerate() {
-            assert!((c - p - v).norm() < 1e-12, "frame {f}, vertex {i}: velocity changed");
-        }
-        tested += 1;
-        if tested == 3 {
-            break;
-        }
+    let f = 20;
+    let body = g.body_at(motion, f).unwrap();
+    let q = senc_scene::BodyQuery::new(&body, g.body_faces()).unwrap();
+    let (mut prev, mut curr) = (g.skinned_at(motion, f - 1).unwrap(), g.skinned_at(motion, f).unwrap());
+    let static_energy =
+        |x: &[senc_geom::Vec3]| em.frame(x, x, Some((&body, &body))).unwrap().evaluate(x, None).unwrap().total;
+    let (inside0, e0) = (q.inside(&curr).len(), static_energy(&curr));
+    let v0: Vec<_> = curr.iter().zip(&prev).map(|(c, p)| c - p).collect();
+    g.relax_start(&em, &mut prev, &mut curr, &body, 4).unwrap();
+    let (inside1, e1) = (q.inside(&curr).len(), static_energy(&curr));
+    assert!(inside0 > 50, "frame {f} was expected to penetrate: {inside0}");
+    // 381 -> 201 inside and 1111 J -> 35 J when written: the cubic penalty leaves many
+    // vertices a millimetre inside, where it costs almost nothing.
+    assert!(inside1 * 3 <= inside0 * 2, "inside {inside0} -> {inside1}");
+    assert!(e1 * 10.0 < e0, "energy {e0} -> {e1}");
+    for (i, ((c, p), v)) in curr.iter().zip(&prev).zip(&v0).enumerate() {
+        assert!((c - p - v).norm() < 1e-12, "vertex {i}: velocity changed");
     }
-    assert!(tested > 0, "no penetrating skinned frame found to test on");
 }
