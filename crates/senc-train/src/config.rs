@@ -83,18 +83,6 @@ pub struct TrainConfig {
     /// Length of the collision-weight ramp, iterations (HOOD ramps over 100k; ours are
     /// shorter). Ignored without `collision_weight_start`.
     pub collision_ramp_iterations: u64,
-    /// Newton iterations of the training target (0, the default, is the paper's and HOOD's
-    /// plain energy gradient). With `k > 0` the parameter gradient is not `Jᵀ ∂E/∂x` but
-    /// `Jᵀ M/Δt² (x − x*)`, where `x*` is the network's prediction `x` after `k` Newton
-    /// iterations of the reference solver on the same frame energy (stop-gradient). Both
-    /// vanish exactly where `∂E/∂x = 0`, so the minimiser is unchanged; the Newton target
-    /// weighs every mode by how far it is from the minimum in metres instead of by its
-    /// stiffness, so the stiff stretching and collision modes no longer drown the soft
-    /// ones (gravity, inertia, bending) in Adam's statistics. No data is involved: the
-    /// target is computed from the energy alone.
-    pub target_iterations: usize,
-    /// CG iterations per Newton iteration of the target (default 40).
-    pub target_cg_iterations: usize,
 }
 
 impl Default for TrainConfig {
@@ -121,8 +109,6 @@ impl Default for TrainConfig {
             scenes: Vec::new(),
             collision_weight_start: None,
             collision_ramp_iterations: 1000,
-            target_iterations: 0,
-            target_cg_iterations: 40,
         }
     }
 }

@@ -172,28 +172,6 @@ pub fn scene_material(g: &Garment) -> Result<Material, TrainError> {
     Ok(Material { mu, lambda, thickness: mc.thickness, bending_stiffness: mc.bending, density: mc.density })
 }
 
-/// The Newton-target surrogate gradient `M/Δt² (x − x*)`, N, where `x*` is `x` after
-/// `iterations` Newton iterations on `fe` (see [`crate::config::TrainConfig::target_iterations`]).
-/// Where the solver makes no progress (`x* = x`) the gradient is zero.
-pub fn newton_target_gradient(
-    fe: &senc_energy::FrameEnergy<'_>,
-    x: &[Vec3],
-    dt: f64,
-    iterations: usize,
-    cg_iterations: usize,
-) -> Result<Vec<Vec3>, TrainError> {
-    let options = senc_energy::SolverOptions {
-        max_iterations: iterations,
-        cg_max_iterations: cg_iterations,
-        cg_tolerance: 1e-3,
-        max_backtracks: 20,
-        ..Default::default()
-    };
-    let (target, _) = senc_energy::solve(fe, x, &options)?;
-    let inv_dt2 = 1.0 / (dt * dt);
-    Ok(x.iter().zip(&target).zip(fe.model().masses()).map(|((x, t), m)| (x - t) * (m * inv_dt2)).collect())
-}
-
 fn finite(v: &[Vec3]) -> bool {
     v.iter().all(|p| p.iter().all(|c| c.is_finite()))
 }
@@ -515,15 +493,6 @@ impl Trainer {
         let mut grad = vec![Vec3::zeros(); next.len()];
         let fe = if finite(&next) { em.frame(&seq.curr, &seq.prev, Some((&body_t, &body_n))).ok() } else { None };
         let evaluated = fe.as_ref().and_then(|fe| fe.evaluate(&next, Some(&mut grad)).ok());
-        if let (Some(fe), Some(b)) = (&fe, &evaluated) {
-            let t = &self.config.train;
-            if t.target_iterations > 0 && b.total.is_finite() && finite(&grad) {
-                match newton_target_gradient(fe, &next, dt, t.target_iterations, t.target_cg_iterations) {
-                    Ok(g) => grad = g,
-                    Err(e) => tracing::warn!(error = %e, "Newton target failed: plain energy gradient used"),
-                }
-            }
-        }
         let lr = self.config.train.lr(k);
         let mut report = StepReport {
             phase,
