@@ -218,8 +218,13 @@ fn error_vs_runtime(
     let dt = g.scene.dt();
     let em = g.energy_model(cfg.energy_for(2, material, ext), dt)?;
     let (_, r) = &rollouts[0];
-    let k = cfg.eval.curve_states.max(1).min(r.steps.saturating_sub(1).max(1));
-    let states: Vec<usize> = (0..k).map(|i| 1 + i * (r.steps.saturating_sub(1)) / k).collect();
+    // States from frame 2 on: frame 1's stored predecessor is the start, whose difference
+    // to frame 1 spans the long first step, not a 1/fps velocity.
+    if r.steps < 3 {
+        return Err(TrainError::Invalid("the error-against-run-time curve needs [eval] frames >= 3".into()));
+    }
+    let k = cfg.eval.curve_states.max(1).min(r.steps - 2);
+    let states: Vec<usize> = (0..k).map(|i| 2 + i * (r.steps - 2) / k).collect();
     let budgets = &cfg.eval.solver_budgets;
     let mut acc = vec![(0.0, 0.0, 0.0); budgets.len() + 1];
     let accel = Vec3::from(g.scene.config.external_force.gravity) + Vec3::from(ext);

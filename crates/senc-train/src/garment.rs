@@ -187,3 +187,11 @@ impl Garment {
         self.proxy_mesh.faces()
     }
 }
+
+/// Moves `prev` so that `curr − prev` becomes `k (curr − prev)`: after a step of length
+/// `Δt₁`, the state for steps of length `Δt` keeps the same velocity with `k = Δt / Δt₁`.
+pub fn rescale_velocity(prev: &mut [Vec3], curr: &[Vec3], k: f64) {
+    for (p, c) in prev.iter_mut().zip(curr) {
+        *p = c - (c - *p) * k;
+    }
+}

@@ -26,16 +26,27 @@ pub struct Rollout {
     pub steps: usize,
 }
 
-/// The rollout loop shared by the network and the solver: the garment starts skinned at
-/// frame 0 with zero velocity; `step(prev, curr, body_t, body_next, skinned_next)` gives
-/// each next frame and is the only part timed (`skinned_next` is the skinned garment at
-/// the next frame when the garment has pinned vertices, whose positions are then copied
-/// from it into the step's answer). A non-finite frame ends the rollout with an error.
+/// One step's view in [`roll`]: `x[t−1]`, `x[t]`, body at t and t+1, the skinned garment at
+/// t+1 when the garment has pinned vertices, and whether this is the long first step.
+pub(crate) struct StepInput<'a> {
+    prev: &'a [Vec3],
+    curr: &'a [Vec3],
+    body_t: &'a [Vec3],
+    body_next: &'a [Vec3],
+    pins: Option<&'a [Vec3]>,
+    first: bool,
+}
+
+/// The rollout loop shared by the network and the solver, as in training: the garment
+/// starts skinned at frame 0 with zero velocity, the first step is `[scene] first_step_dt`
+/// long (the velocity it leaves is rescaled to 1/fps steps), and `step` gives each next
+/// frame and is the only part timed. Pinned vertices of the answer are copied from the
+/// skinned garment. A non-finite frame ends the rollout with an error.
 fn roll(
     g: &Garment,
     motion: &Motion,
     frames: usize,
-    mut step: impl FnMut(&[Vec3], &[Vec3], &[Vec3], &[Vec3], Option<&[Vec3]>) -> Result<Vec<Vec3>, TrainError>,
+    mut step: impl FnMut(StepInput<'_>) -> Result<Vec<Vec3>, TrainError>,
 ) -> Result<Rollout, TrainError> {
     let n = frames.min(motion.n_frames().saturating_sub(1));
     let x0 = g.skinned_at(motion, 0)?;
@@ -48,7 +59,15 @@ fn roll(
         let b_next = g.body_at(motion, f + 1)?;
         let pins = if g.pinned.is_empty() { None } else { Some(g.skinned_at(motion, f + 1)?) };
         let t0 = Instant::now();
-        let mut next = step(&prev, &curr, &body[f], &b_next, pins.as_deref())?;
+        let input = StepInput {
+            prev: &prev,
+            curr: &curr,
+            body_t: &body[f],
+            body_next: &b_next,
+            pins: pins.as_deref(),
+            first: f == 0,
+        };
+        let mut next = step(input)?;
         secs += t0.elapsed().as_secs_f64();
         if let Some(p) = &pins {
             g.pin_from(&mut next, p);
@@ -57,6 +76,9 @@ fn roll(
             return Err(TrainError::Invalid(format!("the rollout diverged (non-finite positions) at frame {}", f + 1)));
         }
         prev = std::mem::replace(&mut curr, next);
+        if f == 0 {
+            crate::garment::rescale_velocity(&mut prev, &curr, g.scene.dt() / g.scene.config.first_step_dt);
+        }
         cloth.push(curr.clone());
         body.push(b_next);
     }
@@ -76,16 +98,15 @@ pub fn rollout(
     let model = if model.device.is_autodiff() { model.valid() } else { model.clone() };
     let accel = Vec3::from(g.scene.config.external_force.gravity) + external;
     let material = model_material(material);
-    let dt = g.scene.dt();
-    roll(g, motion, frames, |prev, curr, body_t, body_next, _| {
+    roll(g, motion, frames, |s| {
         let frame = FrameState {
             rest: &g.rest,
-            prev,
-            curr,
+            prev: s.prev,
+            curr: s.curr,
             material,
             accel,
-            dt,
-            body: Some(BodyState { faces: g.body_faces(), curr: body_t, next: body_next }),
+            dt: if s.first { g.scene.config.first_step_dt } else { g.scene.dt() },
+            body: Some(BodyState { faces: g.body_faces(), curr: s.body_t, next: s.body_next }),
             pinned: &g.pinned,
         };
         Ok(model.step(&frame)?)
@@ -108,11 +129,13 @@ pub fn solver_rollout(
     iterations: usize,
 ) -> Result<Rollout, TrainError> {
     let em = g.energy_model(energy.clone(), g.scene.dt())?;
+    let em_first = g.energy_model(energy.clone(), g.scene.config.first_step_dt)?;
     let opts = senc_energy::SolverOptions { max_iterations: iterations.max(1), ..Default::default() };
-    roll(g, motion, frames, |prev, curr, body_t, body_next, pins| {
-        let fe = em.frame(curr, prev, Some((body_t, body_next)))?;
-        let mut start: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| curr.to_vec());
-        if let Some(p) = pins {
+    roll(g, motion, frames, |s| {
+        let em = if s.first { &em_first } else { &em };
+        let fe = em.frame(s.curr, s.prev, Some((s.body_t, s.body_next)))?;
+        let mut start: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| s.curr.to_vec());
+        if let Some(p) = s.pins {
             g.pin_from(&mut start, p);
         }
         Ok(senc_energy::solve(&fe, &start, &opts)?.0)

@@ -526,6 +526,11 @@ impl Trainer {
             report.skipped = false;
             s.prev = std::mem::take(&mut s.curr);
             s.curr = next;
+            if s.first_step {
+                // The next steps are 1/fps long: keep the velocity, not the displacement.
+                let k = g.scene.dt() / g.scene.config.first_step_dt;
+                crate::garment::rescale_velocity(&mut s.prev, &s.curr, k);
+            }
             s.frame += 1;
             s.steps_left -= 1;
             s.first_step = false;

@@ -201,3 +201,17 @@ fn relaxed_start_leaves_the_body_and_keeps_velocities() {
         assert!((c - p - v).norm() < 1e-12, "vertex {i}: velocity changed");
     }
 }
+
+/// After the long first step the state keeps its velocity for 1/fps steps:
+/// `rescale_velocity` turns a 0.1 s displacement into the 1/30 s one of the same velocity.
+#[test]
+fn rescaled_velocity_is_the_same_velocity() {
+    use senc_geom::Vec3;
+    let curr = vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(-1.0, 0.5, 0.0)];
+    let mut prev = vec![Vec3::new(1.0, 2.3, 3.0), Vec3::new(-1.6, 0.5, 0.3)];
+    let v_before: Vec<Vec3> = curr.iter().zip(&prev).map(|(c, p)| (c - p) / 0.1).collect();
+    senc_train::garment::rescale_velocity(&mut prev, &curr, (1.0 / 30.0) / 0.1);
+    for ((c, p), v) in curr.iter().zip(&prev).zip(&v_before) {
+        assert!(((c - p) * 30.0 - v).norm() < 1e-12);
+    }
+}
