@@ -5,17 +5,20 @@
 //!    a random material (HOOD's ranges) and external acceleration (|a| uniform in
 //!    `[0, external_max]` m/s², uniform direction), σ noise on the initial positions; with
 //!    probability `first_step_probability` the sequence starts at frame 0 from the skinned
-//!    rest pose with the long first step (`[scene] first_step_dt`). It runs for
-//!    `min(1 + ⌊k / rollout_growth⌋, rollout_max)` steps.
-//! 2. The network predicts `x[t+1]`; senc-energy evaluates `E(x[t+1])` and `g = ∂E/∂x[t+1]`
+//!    rest pose with the long first step (`[scene] first_step_dt`, the velocity rescaled to
+//!    1/fps after it), else mid-motion from the skinned state relaxed out of the body
+//!    (`Garment::relax_start`). It runs for `min(1 + ⌊k / rollout_growth⌋, rollout_max)`
+//!    steps.
+//! 2. The network predicts `x[t+1]` (pinned vertices are then set to the skinned garment);
+//!    senc-energy evaluates `E(x[t+1])` and `g = ∂E/∂x[t+1]`
 //!    in f64; the surrogate loss `Σ x ⊙ g` is backpropagated; gradients are clipped by their
 //!    global norm; Adam steps with `lr · (0.5^⌊k/lr_halving⌋ + 0.01)`.
 //! 3. `x[t+1]` (f64, detached) becomes the next state.
 //!
 //! Warm-up iterations before phase 1 only feed the normalisers (inputs from graphs of
 //! skinned states, outputs from the skinned garment's acceleration beyond gravity,
-//! `(x̂[t+1] − 2x̂[t] + x̂[t−1]) / Δt² − g`). Phase 1 trains without the self-collision, area and repulsion
-//! energies; phase 2 starts from phase 1's weights (saved in `OUT/phase1`) with a fresh Adam
+//! `(x̂[t+1] − 2x̂[t] + x̂[t−1]) / Δt² − g`). Phase 1 trains without the self-collision, area
+//! and repulsion energies; phase 2 starts from phase 1's weights (saved in `OUT/phase1`) with a fresh Adam
 //! state and all energies of `[energy]`. A step whose energy, energy gradient or parameter
 //! gradient is not finite is skipped (no optimiser step), counted, and ends its sequence.
 //!
