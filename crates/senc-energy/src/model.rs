@@ -169,11 +169,6 @@ impl EnergyModel {
         Ok(self)
     }
 
-    /// Whether vertex `i` is pinned.
-    pub fn is_pinned(&self, i: usize) -> bool {
-        self.pinned.get(i).copied().unwrap_or(false)
-    }
-
     /// Replaces the rows and columns of pinned vertices by the identity's.
     fn constrain(&self, h: &mut BlockSparse) {
         if self.pinned.is_empty() {

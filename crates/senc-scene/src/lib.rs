@@ -27,7 +27,6 @@ pub mod skeleton;
 
 pub use assets::{BodyAsset, GarmentAsset, NamedLoop};
 pub use body_query::BodyQuery;
-pub use build::{push_out, PushOut};
 pub use bvh::Bvh;
 pub use config::SceneConfig;
 pub use error::SceneError;
