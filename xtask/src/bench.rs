@@ -4,7 +4,9 @@
 //! The graph is the one training builds: the config's garment (default the t-shirt) skinned
 //! onto the body at frames `f − 1` and `f` of its first training motion, the proxy body at
 //! `f` and `f + 1`, the config's `[model]` graph settings. Timed: graph building, upload,
-//! inference (`valid()` model, output read back) and forward + surrogate backward at the
+//! inference (`valid()` model, output read back), inference on the fused CPU path
+//! (`FusedNetwork`, what rollouts use; normalisation and cast included) and forward +
+//! surrogate backward at the
 //! config's `[model]` size, at HOOD's size with one block and at HOOD's full size (latent 128,
 //! 15 blocks, 2 hidden layers; one rep with `--quick`). Without `--quick` also graph building
 //! on synthetic 5k and 20k-vertex garments and the main operations of one block.
@@ -176,13 +178,15 @@ fn model(o: &Opts) -> Result<()> {
         let r = if quick && k == 2 { 1 } else { reps };
         let t = bench_network(&label, &c, &graph, r, o.backward);
         println!(
-            "{:34} params {:7} | upload {:6.1} ms | forward {:8.1} ms | forward+backward {:8.1} ms | fps incl. graph {:.1}",
+            "{:34} params {:7} | upload {:6.1} ms | forward {:8.1} ms | fused {:8.1} ms | forward+backward {:8.1} ms | fps incl. graph: burn {:.1}, fused {:.1}",
             t.label,
             t.params,
             t.upload * 1e3,
             t.forward * 1e3,
+            t.fused * 1e3,
             t.forward_backward * 1e3,
-            1.0 / (build + t.upload + t.forward)
+            1.0 / (build + t.upload + t.forward),
+            1.0 / (build + t.fused)
         );
         rows.push(t);
     }
@@ -245,11 +249,14 @@ fn torch_compare(dir: &Path, own: &ModelConfig, reps: usize, quick: bool, rows: 
     for (burn, t) in rows.iter().zip(torch_rows) {
         let (tf, tb) = (t["forward"].as_f64().unwrap_or(f64::NAN), t["forward_backward"].as_f64().unwrap_or(f64::NAN));
         println!(
-            "{:34} | forward {:7.1} / {:7.1} ms = {:.2} | forward+backward {:8.1} / {:8.1} ms = {:.2}",
+            "{:34} | forward {:7.1} / {:7.1} ms = {:.2} | fused forward {:7.1} / {:7.1} ms = {:.2} | forward+backward {:8.1} / {:8.1} ms = {:.2}",
             burn.label,
             burn.forward * 1e3,
             tf * 1e3,
             burn.forward / tf,
+            burn.fused * 1e3,
+            tf * 1e3,
+            burn.fused / tf,
             burn.forward_backward * 1e3,
             tb * 1e3,
             burn.forward_backward / tb

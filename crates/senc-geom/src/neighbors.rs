@@ -18,9 +18,8 @@
 //! a few edge lengths). A huge `r` relative to the point spread degrades to all pairs,
 //! `O(n²)`, which is then also the size of the answer.
 
-use std::collections::HashMap;
-
 use rayon::prelude::*;
+use rustc_hash::FxHashMap;
 
 use crate::Vec3;
 
@@ -29,8 +28,8 @@ const CELL_LIMIT: f64 = 4.611_686_018_427_388e18;
 
 /// A uniform grid of cubic cells of side `cell` over a fixed point set.
 ///
-/// Points are stored sorted by cell (then index), with a hash map from occupied cell to its
-/// slice, so memory is `O(n)` whatever the extent of the points.
+/// Points are stored sorted by cell (then index), with a hash map (Fx: 27 lookups per query,
+/// SipHash's cost showed in profiles) from occupied cell to its slice, so memory is `O(n)` whatever the extent of the points.
 #[derive(Debug, Clone)]
 pub struct SpatialGrid {
     cell: f64,
@@ -38,7 +37,7 @@ pub struct SpatialGrid {
     /// Point indices grouped by cell, ascending within each cell.
     order: Vec<u32>,
     /// Occupied cell → range in `order`.
-    cells: HashMap<[i64; 3], (u32, u32)>,
+    cells: FxHashMap<[i64; 3], (u32, u32)>,
 }
 
 impl SpatialGrid {
@@ -49,7 +48,7 @@ impl SpatialGrid {
         let mut keyed: Vec<([i64; 3], u32)> =
             points.par_iter().enumerate().map(|(i, p)| (cell_of(p, cell), i as u32)).collect();
         keyed.par_sort_unstable();
-        let mut cells = HashMap::with_capacity(keyed.len() / 2 + 1);
+        let mut cells = FxHashMap::with_capacity_and_hasher(keyed.len() / 2 + 1, Default::default());
         let mut start = 0usize;
         while start < keyed.len() {
             let key = keyed[start].0;

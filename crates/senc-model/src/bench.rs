@@ -88,12 +88,15 @@ pub struct NetTiming {
     pub upload: f64,
     /// Inference seconds (valid model, output read back).
     pub forward: f64,
+    /// Inference seconds of the fused host path ([`crate::FusedNetwork`]: normalise, cast,
+    /// network, de-normalise; the same work as `upload + forward`).
+    pub fused: f64,
     /// Forward + surrogate backward seconds (autodiff model).
     pub forward_backward: f64,
 }
 
-/// Times `config` on `graph`: inference on a plain flex device and, with `backward`, forward +
-/// backward on an autodiff one (NaN otherwise).
+/// Times `config` on `graph`: inference on a plain flex device, inference on the fused host
+/// path and, with `backward`, forward + backward on an autodiff one (NaN otherwise).
 pub fn bench_network(label: &str, config: &ModelConfig, graph: &GraphInputs, reps: usize, backward: bool) -> NetTiming {
     let device = Device::flex();
     let mut model = Model::new(config.clone(), GraphConfig::default(), 1, &device.clone().autodiff());
@@ -108,6 +111,10 @@ pub fn bench_network(label: &str, config: &ModelConfig, graph: &GraphInputs, rep
         let out = valid.forward_tensors(&tensors);
         let _ = tensor_to_f64(out);
     });
+    let engine = crate::FusedNetwork::new(&valid);
+    let fused = time_median(reps, || {
+        let _ = engine.accelerations(graph);
+    });
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let g: Vec<Vec3> = (0..graph.n_cloth).map(|_| Vec3::new(rng.random(), rng.random(), rng.random())).collect();
     let ad_tensors = model.tensors(graph);
@@ -119,7 +126,7 @@ pub fn bench_network(label: &str, config: &ModelConfig, graph: &GraphInputs, rep
     } else {
         f64::NAN
     };
-    NetTiming { label: label.to_string(), params, upload, forward, forward_backward }
+    NetTiming { label: label.to_string(), params, upload, forward, fused, forward_backward }
 }
 
 /// Times the network's main operations at the sizes of one message-passing step on `graph`'s

@@ -38,9 +38,63 @@ impl GraphTensors {
     /// Normalises `graph` with `norm` (f64) and uploads it as f32 to `device`. Edge types
     /// without a normaliser in `norm` (coarse levels the model does not have) are dropped.
     pub fn new(graph: &GraphInputs, norm: &Normalizers, device: &Device) -> Self {
+        Self::upload(&HostGraph::new(graph, norm), device)
+    }
+
+    /// Uploads a graph already normalised and cast on the host.
+    pub fn upload(host: &HostGraph, device: &Device) -> Self {
+        let nodes = Tensor::from_data(TensorData::new(host.nodes.clone(), [host.n_nodes, NODE_FEATURES]), device);
+        let edges = host
+            .edges
+            .iter()
+            .map(|set| {
+                set.as_ref().map(|set| EdgeTensors {
+                    senders: index_tensor(&set.senders, device),
+                    receivers: index_tensor(&set.receivers, device),
+                    features: Tensor::from_data(
+                        TensorData::new(set.features.clone(), [set.senders.len(), EDGE_FEATURES]),
+                        device,
+                    ),
+                })
+            })
+            .collect();
+        Self { n_cloth: host.n_cloth, n_nodes: host.n_nodes, nodes, edges }
+    }
+}
+
+/// One edge set normalised and cast to f32, on the host.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HostEdges {
+    /// Sender node per edge.
+    pub senders: Vec<u32>,
+    /// Receiver node per edge.
+    pub receivers: Vec<u32>,
+    /// Normalised features, row-major `[E, EDGE_FEATURES]`.
+    pub features: Vec<f32>,
+}
+
+/// A graph normalised (in f64) and cast to f32 on the host: what both [`GraphTensors`] (burn)
+/// and [`crate::fused::FusedNetwork`] (the CPU inference path) consume, so that the two see
+/// the same f32 inputs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HostGraph {
+    /// Number of cloth nodes (the first rows).
+    pub n_cloth: usize,
+    /// Total node count.
+    pub n_nodes: usize,
+    /// Normalised node features, row-major `[n_nodes, NODE_FEATURES]`.
+    pub nodes: Vec<f32>,
+    /// Edge sets by [`EdgeType::index`], one per normaliser in `norm`; `None` where the graph
+    /// has no edge of that type.
+    pub edges: Vec<Option<HostEdges>>,
+}
+
+impl HostGraph {
+    /// Normalises `graph` with `norm` in f64 and rounds it to f32 once. Edge types without a
+    /// normaliser in `norm` (coarse levels the model does not have) are dropped.
+    pub fn new(graph: &GraphInputs, norm: &Normalizers) -> Self {
         let mut nodes = graph.nodes.clone();
         norm.node.normalize(&mut nodes);
-        let nodes = f32_tensor(&nodes, [graph.n_nodes(), NODE_FEATURES], device);
         let edges = (0..norm.edges.len())
             .map(|k| {
                 let set = graph.edge_set(EdgeType::from_index(k));
@@ -49,21 +103,25 @@ impl GraphTensors {
                 }
                 let mut feat = set.features.clone();
                 norm.edges[k].normalize(&mut feat);
-                Some(EdgeTensors {
-                    senders: index_tensor(&set.senders, device),
-                    receivers: index_tensor(&set.receivers, device),
-                    features: f32_tensor(&feat, [set.len(), EDGE_FEATURES], device),
+                Some(HostEdges {
+                    senders: set.senders.clone(),
+                    receivers: set.receivers.clone(),
+                    features: to_f32(&feat),
                 })
             })
             .collect();
-        Self { n_cloth: graph.n_cloth, n_nodes: graph.n_nodes(), nodes, edges }
+        Self { n_cloth: graph.n_cloth, n_nodes: graph.n_nodes(), nodes: to_f32(&nodes), edges }
     }
+}
+
+/// Rounds f64 values to f32.
+pub fn to_f32(values: &[f64]) -> Vec<f32> {
+    values.iter().map(|&v| v as f32).collect()
 }
 
 /// A row-major f64 array as an f32 tensor of the given shape.
 pub fn f32_tensor<const D: usize>(values: &[f64], shape: [usize; D], device: &Device) -> Tensor<D> {
-    let data: Vec<f32> = values.iter().map(|&v| v as f32).collect();
-    Tensor::from_data(TensorData::new(data, shape), device)
+    Tensor::from_data(TensorData::new(to_f32(values), shape), device)
 }
 
 /// Node indices as an integer tensor `[n]`.

@@ -6,6 +6,7 @@ use burn::tensor::{Device, Tensor};
 use senc_geom::Vec3;
 
 use crate::convert::{f32_tensor, tensor_to_vec3, GraphTensors};
+use crate::fused::FusedNetwork;
 use crate::graph::{GraphConfig, GraphInputs};
 use crate::network::{ModelConfig, Network};
 use crate::normalizer::Normalizers;
@@ -125,5 +126,37 @@ impl Model {
         let accel = tensor_to_vec3(accel)?;
         let dt2 = frame.dt * frame.dt;
         Ok(Self::free_flight(frame).into_iter().zip(accel).map(|(b, a)| b + a * dt2).collect())
+    }
+}
+
+/// How a model runs inference in rollouts: the fused host path ([`FusedNetwork`]) when the
+/// model lives on the CPU (flex) device, burn's tensors otherwise (a GPU device). Build it
+/// once per rollout with [`Model::stepper`]: it copies the weights.
+#[derive(Debug, Clone)]
+pub enum Stepper {
+    /// The fused CPU path.
+    Fused(Box<FusedNetwork>),
+    /// burn on the model's (non-autodiff) device.
+    Burn(Box<Model>),
+}
+
+impl Model {
+    /// The inference engine for this model's device (see [`Stepper`]).
+    pub fn stepper(&self) -> Stepper {
+        if self.device.clone().inner() == Device::flex() {
+            Stepper::Fused(Box::new(FusedNetwork::new(self)))
+        } else {
+            Stepper::Burn(Box::new(self.valid()))
+        }
+    }
+}
+
+impl Stepper {
+    /// The next cloth positions of one frame (see [`Model::step`]).
+    pub fn step(&self, frame: &crate::FrameState<'_>) -> Result<Vec<Vec3>, ModelError> {
+        match self {
+            Self::Fused(f) => f.step(frame),
+            Self::Burn(m) => m.step(frame),
+        }
     }
 }

@@ -111,10 +111,10 @@ impl ModelConfig {
 #[derive(Module, Debug)]
 pub struct Mlp {
     /// One weight block per input part; only the first carries the bias.
-    first: Vec<Linear>,
+    pub(crate) first: Vec<Linear>,
     /// The remaining layers.
-    layers: Vec<Linear>,
-    norm: Option<LayerNorm>,
+    pub(crate) layers: Vec<Linear>,
+    pub(crate) norm: Option<LayerNorm>,
 }
 
 impl Mlp {
@@ -191,18 +191,30 @@ pub fn linear_layer_norm(x: Tensor<2>, layer: &Linear, norm: &LayerNorm) -> Tens
 #[derive(Module, Debug)]
 pub struct Block {
     /// The hierarchy level it works on (0: mesh, body and self edges).
-    level: usize,
-    edges: Vec<Mlp>,
-    node: Mlp,
+    pub(crate) level: usize,
+    pub(crate) edges: Vec<Mlp>,
+    pub(crate) node: Mlp,
+}
+
+impl Block {
+    /// The edge-type indices this block passes messages on, in the order of its edge MLPs:
+    /// mesh, body and self on level 0, the level's coarse edges on level `ℓ > 0`.
+    pub(crate) fn edge_types(&self) -> Vec<usize> {
+        if self.level == 0 {
+            (0..N_EDGE_TYPES).collect()
+        } else {
+            vec![2 + self.level]
+        }
+    }
 }
 
 /// The whole network. Build it with [`ModelConfig::init`].
 #[derive(Module, Debug)]
 pub struct Network {
-    node_encoder: Mlp,
-    edge_encoders: Vec<Mlp>,
-    blocks: Vec<Block>,
-    decoder: Mlp,
+    pub(crate) node_encoder: Mlp,
+    pub(crate) edge_encoders: Vec<Mlp>,
+    pub(crate) blocks: Vec<Block>,
+    pub(crate) decoder: Mlp,
 }
 
 impl Network {
@@ -244,8 +256,7 @@ impl Network {
             .collect();
         for block in &self.blocks {
             let mut node_pre = block.node.part(0, h.clone()); // [N, L]
-            let types: Vec<usize> = if block.level == 0 { (0..N_EDGE_TYPES).collect() } else { vec![2 + block.level] };
-            for (k, (&t, mlp)) in types.iter().zip(&block.edges).enumerate() {
+            for (k, (&t, mlp)) in block.edge_types().iter().zip(&block.edges).enumerate() {
                 let (Some(Some(set)), Some(Some(e_t))) = (g.edges.get(t), e.get_mut(t).map(Option::take)) else {
                     continue;
                 };

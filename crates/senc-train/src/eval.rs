@@ -229,6 +229,7 @@ fn error_vs_runtime(
     let mut acc = vec![(0.0, 0.0, 0.0); budgets.len() + 1];
     let accel = Vec3::from(g.scene.config.external_force.gravity) + Vec3::from(ext);
     let mat = model_material(&material);
+    let stepper = model.stepper();
     for &s in &states {
         let (prev, curr) = (&r.cloth[s - 1], &r.cloth[s]);
         let (bt, bn) = (&r.body[s], &r.body[s + 1]);
@@ -255,7 +256,7 @@ fn error_vs_runtime(
             body: Some(BodyState { faces: g.body_faces(), curr: bt, next: bn }),
             pinned: &g.pinned,
         };
-        let mut x = model.step(&frame)?;
+        let mut x = stepper.step(&frame)?;
         g.pin_from(&mut x, &r.cloth[s + 1]);
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         let e = fe.evaluate(&x, None)?.total;
@@ -435,7 +436,7 @@ pub fn one_step_probe(
 ) -> Result<(Vec<ProbeRow>, ProbeRow), TrainError> {
     let cfg = RunConfig::read(config)?;
     let g = Garment::load(&first_scene(&cfg)?, cfg.train.body_margin)?;
-    let model = checkpoint.map(|c| Model::load(c, &Device::flex())).transpose()?;
+    let model = checkpoint.map(|c| Model::load(c, &Device::flex())).transpose()?.map(|m| m.stepper());
     let material = scene_material(&g)?;
     let ext = g.scene.config.external_force.acceleration;
     let dt = g.scene.dt();

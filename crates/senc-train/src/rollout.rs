@@ -95,7 +95,7 @@ pub fn rollout(
     external: Vec3,
     material: &Material,
 ) -> Result<Rollout, TrainError> {
-    let model = if model.device.is_autodiff() { model.valid() } else { model.clone() };
+    let model = model.stepper();
     let accel = Vec3::from(g.scene.config.external_force.gravity) + external;
     let material = model_material(material);
     roll(g, motion, frames, |s| {
