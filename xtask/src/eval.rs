@@ -87,7 +87,7 @@ pub fn run(
         eprintln!("evaluating {} on {}", m.label, m.config.display());
         let (row, c) = evaluate(&m).with_context(|| format!("evaluating {}", ck.display()))?;
         println!(
-            "{} {}: V {:.3} cm³, L_self-col {:.3e}, >0.1 {:.1}%, >0.01 {:.1}%, body {:.2}%, {:.1} FPS",
+            "{} {}: V {:.3} cm³, L_self-col {:.3e}, >0.1 {:.1}%, >0.01 {:.1}%, body {:.2}%, from skinned {:.1} cm, {:.1} FPS",
             row.method,
             row.garment,
             row.volume_cm3,
@@ -95,6 +95,7 @@ pub fn run(
             row.pct_above_0_1,
             row.pct_above_0_01,
             row.body_penetration_pct,
+            row.departure_cm,
             row.fps
         );
         rows.push(row);

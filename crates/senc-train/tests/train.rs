@@ -85,6 +85,7 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     assert_eq!(row.frames, 4);
     assert!(row.volume_cm3.is_finite() && row.volume_cm3 >= 0.0);
     assert!(row.fps > 0.0);
+    assert!(row.departure_cm.is_finite() && row.departure_cm > 0.0, "{}", row.departure_cm);
     assert_eq!(curve.len(), 4, "3 solver budgets + the network");
     assert!(curve.iter().all(|p| p.energy_gap.is_finite()));
     let out = d.join("reports");
