@@ -18,59 +18,7 @@ pub(crate) fn ordered_sum(partials: Vec<f64>) -> f64 {
     partials.iter().sum()
 }
 
-/// Vertex → slot map over a flat buffer of per-slot gradients.
-#[derive(Debug, Clone)]
-pub struct Gather {
-    offsets: Vec<u32>,
-    slots: Vec<u32>,
-}
-
-impl Gather {
-    /// Builds the map from the vertex of every slot, in buffer order (`slot_vertex[s]` is the
-    /// vertex that slot `s` belongs to).
-    pub fn new(n_vertices: usize, slot_vertex: &[u32]) -> Self {
-        let mut offsets = vec![0u32; n_vertices + 1];
-        for &v in slot_vertex {
-            offsets[v as usize + 1] += 1;
-        }
-        for v in 0..n_vertices {
-            offsets[v + 1] += offsets[v];
-        }
-        let mut fill = offsets.clone();
-        let mut slots = vec![0u32; slot_vertex.len()];
-        for (s, &v) in slot_vertex.iter().enumerate() {
-            slots[fill[v as usize] as usize] = s as u32;
-            fill[v as usize] += 1;
-        }
-        Self { offsets, slots }
-    }
-
-    /// Number of vertices.
-    pub fn n_vertices(&self) -> usize {
-        self.offsets.len() - 1
-    }
-
-    /// Number of slots.
-    pub fn n_slots(&self) -> usize {
-        self.slots.len()
-    }
-
-    /// The slots of vertex `v`, in increasing order.
-    #[inline]
-    pub fn slots(&self, v: usize) -> &[u32] {
-        &self.slots[self.offsets[v] as usize..self.offsets[v + 1] as usize]
-    }
-
-    /// `Σ_{s ∈ slots(v)} buf[s]`, in slot order.
-    #[inline]
-    pub fn sum(&self, v: usize, buf: &[Vec3]) -> Vec3 {
-        let mut sum = Vec3::zeros();
-        for &s in self.slots(v) {
-            sum += buf[s as usize];
-        }
-        sum
-    }
-}
+pub use senc_geom::gather::Gather;
 
 /// Vertex → element-corner map for elements of `K` vertices.
 #[derive(Debug, Clone)]

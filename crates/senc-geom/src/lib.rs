@@ -20,6 +20,7 @@
 pub mod closure;
 pub mod cut;
 pub mod error;
+pub mod gather;
 pub mod intersect;
 pub mod mesh;
 pub mod neighbors;

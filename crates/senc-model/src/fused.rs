@@ -20,6 +20,7 @@ use burn::module::Module;
 use burn::nn::Linear;
 use burn::tensor::Tensor;
 use rayon::prelude::*;
+use senc_geom::gather::Gather;
 use senc_geom::Vec3;
 
 use crate::convert::HostGraph;
@@ -263,47 +264,21 @@ fn layer_norm_row(row: &mut [f32], gamma: &[f32], beta: &[f32]) {
     }
 }
 
-/// Edges grouped by receiver (CSR): the edges received by node `n` are
-/// `order[start[n]..start[n + 1]]`, ascending.
-struct ByReceiver {
-    start: Vec<usize>,
-    order: Vec<u32>,
-}
-
-impl ByReceiver {
-    fn new(receivers: &[u32], n_nodes: usize) -> Self {
-        let mut start = vec![0usize; n_nodes + 1];
-        for &r in receivers {
-            start[r as usize + 1] += 1;
-        }
-        for k in 0..n_nodes {
-            start[k + 1] += start[k];
-        }
-        let mut fill = start.clone();
-        let mut order = vec![0u32; receivers.len()];
-        for (i, &r) in receivers.iter().enumerate() {
-            order[fill[r as usize]] = i as u32;
-            fill[r as usize] += 1;
-        }
-        Self { start, order }
-    }
-
-    /// `out[n] = Σ_{i received by n} e[i]` for every node, rows in parallel (no write
-    /// conflicts; sums in edge order, so the result does not depend on the thread count).
-    fn sum(&self, e: &[f32], width: usize, out: &mut [f32]) {
-        out.par_chunks_mut(CHUNK_ROWS * width).enumerate().for_each(|(c, o)| {
-            o.fill(0.0);
-            simd(|| {
-                for (j, row) in o.chunks_exact_mut(width).enumerate() {
-                    let node = c * CHUNK_ROWS + j;
-                    for &i in &self.order[self.start[node]..self.start[node + 1]] {
-                        let src = &e[i as usize * width..(i as usize + 1) * width];
-                        row.iter_mut().zip(src).for_each(|(o, s)| *o += s);
-                    }
+/// `out[n] = Σ_{i received by n} e[i]` for every node, with `by_receiver` grouping the edges
+/// by receiving node (`Gather::new(n_nodes, receivers)`); rows in parallel (no write
+/// conflicts; sums in edge order, so the result does not depend on the thread count).
+fn sum_by_receiver(by_receiver: &Gather, e: &[f32], width: usize, out: &mut [f32]) {
+    out.par_chunks_mut(CHUNK_ROWS * width).enumerate().for_each(|(c, o)| {
+        o.fill(0.0);
+        simd(|| {
+            for (j, row) in o.chunks_exact_mut(width).enumerate() {
+                for &i in by_receiver.slots(c * CHUNK_ROWS + j) {
+                    let src = &e[i as usize * width..(i as usize + 1) * width];
+                    row.iter_mut().zip(src).for_each(|(o, s)| *o += s);
                 }
-            })
-        });
-    }
+            }
+        })
+    });
 }
 
 impl FusedNetwork {
@@ -354,8 +329,8 @@ impl FusedNetwork {
                 })
             })
             .collect();
-        let by_receiver: Vec<Option<ByReceiver>> =
-            g.edges.iter().map(|set| set.as_ref().map(|s| ByReceiver::new(&s.receivers, n))).collect();
+        let by_receiver: Vec<Option<Gather>> =
+            g.edges.iter().map(|set| set.as_ref().map(|s| Gather::new(n, &s.receivers))).collect();
         // Node-sized buffers, allocated once and reused by every block (fresh allocations of
         // this size cost page faults on every block).
         let mut node_pre = Vec::new();
@@ -398,7 +373,7 @@ impl FusedNetwork {
                         add_assign(e_chunk, res);
                     },
                 );
-                csr.sum(e_t, l, &mut agg);
+                sum_by_receiver(csr, e_t, l, &mut agg);
                 par_dense(&block.node.first[1 + k], &agg, &mut node_pre, true);
             }
             h.par_chunks_mut(CHUNK_ROWS * l).zip(node_pre.par_chunks_mut(CHUNK_ROWS * hidden)).for_each_init(
