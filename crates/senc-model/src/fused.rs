@@ -412,8 +412,7 @@ impl FusedNetwork {
     /// a_ext + a)` (as [`Model::step`]).
     pub fn step(&self, frame: &crate::FrameState<'_>) -> Result<Vec<Vec3>, ModelError> {
         let graph = GraphInputs::build(frame, &self.graph)?;
-        let dt2 = frame.dt * frame.dt;
-        Ok(Model::free_flight(frame).into_iter().zip(self.accelerations(&graph)).map(|(b, a)| b + a * dt2).collect())
+        Ok(Model::integrate(frame, self.accelerations(&graph)))
     }
 }
 

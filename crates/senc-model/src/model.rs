@@ -123,9 +123,14 @@ impl Model {
     pub fn step(&self, frame: &crate::FrameState<'_>) -> Result<Vec<Vec3>, ModelError> {
         let graph = self.build_graph(frame)?;
         let accel = if self.device.is_autodiff() { self.valid().forward(&graph) } else { self.forward(&graph) };
-        let accel = tensor_to_vec3(accel)?;
+        Ok(Self::integrate(frame, tensor_to_vec3(accel)?))
+    }
+
+    /// The next positions from the predicted response accelerations `a` (m/s²):
+    /// `x[t+1] = free flight + Δt² a` (see [`Model::free_flight`]).
+    pub(crate) fn integrate(frame: &crate::FrameState<'_>, accel: Vec<Vec3>) -> Vec<Vec3> {
         let dt2 = frame.dt * frame.dt;
-        Ok(Self::free_flight(frame).into_iter().zip(accel).map(|(b, a)| b + a * dt2).collect())
+        Self::free_flight(frame).into_iter().zip(accel).map(|(b, a)| b + a * dt2).collect()
     }
 }
 
