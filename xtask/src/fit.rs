@@ -26,6 +26,29 @@ pub struct FitReport {
     pub min_distance: f64,
     /// Arm correction applied, degrees.
     pub arm_correction_deg: f64,
+    /// Edge collapses and flips of the sliver clean-up (`senc_geom::remesh`), before and
+    /// after the push-out together.
+    pub remesh_ops: (usize, usize),
+    /// Worst triangle quality (`senc_geom::remesh::quality`) of the input and of the result.
+    pub quality: (f64, f64),
+}
+
+/// Removes slivers (`senc_geom::remesh::improve`, default settings), carrying the weights
+/// along. Returns the operations done and the worst quality before and after.
+fn clean(
+    positions: &mut Vec<Vec3>,
+    faces: &mut Vec<[u32; 3]>,
+    weights: Option<&mut WeightLists>,
+) -> Result<((usize, usize), (f64, f64))> {
+    let mesh = TriMesh::new(positions.clone(), faces.clone()).context("the garment mesh is invalid")?;
+    let r = senc_geom::remesh::improve(&mesh, &senc_geom::remesh::RemeshConfig::default())
+        .context("cleaning up thin triangles")?;
+    if let Some(w) = weights {
+        *w = r.source.iter().map(|&v| w[v as usize].clone()).collect();
+    }
+    *positions = r.mesh.positions().to_vec();
+    *faces = r.mesh.faces().to_vec();
+    Ok(((r.collapses, r.flips), (r.worst_before, r.worst_after)))
 }
 
 fn bone_head(body: &BodyAsset, name: &str) -> Result<Vec3> {
@@ -179,11 +202,12 @@ pub fn fit(
     mut positions: Vec<Vec3>,
     mut faces: Vec<[u32; 3]>,
     body: &BodyAsset,
-    weights: Option<WeightLists>,
+    mut weights: Option<WeightLists>,
     do_align: bool,
     margin: f64,
 ) -> Result<(GarmentAsset, FitReport)> {
     let query = BodyQuery::new(&body.positions, &body.faces)?;
+    let (ops0, (quality_in, _)) = clean(&mut positions, &mut faces, weights.as_mut())?;
     let mesh = TriMesh::new(positions.clone(), faces.clone()).context("the garment mesh is invalid")?;
     if do_align {
         align(&mut positions, &mesh, body)?;
@@ -233,17 +257,30 @@ pub fn fit(
             }
         }
     };
-    let weights = SkinWeights::from_lists(&weights)?;
+    let mut weights = weights;
     orient_outward(&positions, &mut faces, &query);
     let inside_before = query.inside(&positions).len();
     push_out(&mut positions, &faces, &query, PushOut { margin, ..PushOut::default() });
+    // The push-out can squash triangles against the body: clean up once more.
+    let (ops1, (_, quality_out)) = clean(&mut positions, &mut faces, Some(&mut weights))?;
+    let weights = SkinWeights::from_lists(&weights)?;
     let inside_after = query.inside(&positions).len();
     let min_distance = query.min_signed_distance(&positions);
     let mesh = TriMesh::new(positions.clone(), faces.clone()).context("the fitted garment is invalid")?;
     let loops = name_loops(&mesh, body)?;
     let asset = GarmentAsset { name: name.to_string(), positions, faces, weights, loops };
     asset.loop_indices()?;
-    Ok((asset, FitReport { inside_before, inside_after, min_distance, arm_correction_deg }))
+    Ok((
+        asset,
+        FitReport {
+            inside_before,
+            inside_after,
+            min_distance,
+            arm_correction_deg,
+            remesh_ops: (ops0.0 + ops1.0, ops0.1 + ops1.1),
+            quality: (quality_in, quality_out),
+        },
+    ))
 }
 
 /// `cargo xtask fit`.
@@ -265,11 +302,15 @@ pub fn run(garment: &Path, body: &Path, out: Option<PathBuf>, scale: f64, no_ali
 /// One line about a fitted garment (shared with `cargo xtask data`).
 pub fn describe(asset: &GarmentAsset, rep: &FitReport) -> String {
     format!(
-        "{}: {} vertices, {} faces, loops {:?}; arm correction {:.1} deg; inside the body before push-out {}, after {}; min distance to body {:.4} m",
+        "{}: {} vertices, {} faces, loops {:?}; thin triangles: {} collapses, {} flips, worst quality {:.3} -> {:.3}; arm correction {:.1} deg; inside the body before push-out {}, after {}; min distance to body {:.4} m",
         asset.name,
         asset.positions.len(),
         asset.faces.len(),
         asset.loop_names(),
+        rep.remesh_ops.0,
+        rep.remesh_ops.1,
+        rep.quality.0,
+        rep.quality.1,
         rep.arm_correction_deg,
         rep.inside_before,
         rep.inside_after,

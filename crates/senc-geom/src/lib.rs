@@ -26,6 +26,7 @@ pub mod mesh;
 pub mod neighbors;
 pub mod obj;
 pub mod predicates;
+pub mod remesh;
 pub mod shapes;
 pub mod topology;
 
