@@ -317,3 +317,28 @@ pub fn describe(asset: &GarmentAsset, rep: &FitReport) -> String {
         rep.min_distance
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sheet with one needle: `clean` removes it and carries each surviving vertex's
+    /// weight list along (here the list names the vertex's input index).
+    #[test]
+    fn clean_carries_weights_with_the_vertices() {
+        let sheet = senc_geom::shapes::grid_sheet(1.0, 1.0, 6, 6).unwrap();
+        let mut positions = sheet.positions().to_vec();
+        positions[3 * 7 + 3] = positions[3 * 7 + 4] - Vec3::new(1e-3, 0.0, 0.0);
+        let mut faces = sheet.faces().to_vec();
+        let before = positions.clone();
+        let mut weights: WeightLists = (0..positions.len()).map(|v| vec![(v as u16, 1.0)]).collect();
+        let ((collapses, _), (q0, q1)) = clean(&mut positions, &mut faces, Some(&mut weights)).unwrap();
+        assert!(collapses >= 1);
+        assert!(q0 < 0.05 && q1 >= 0.2, "quality {q0} -> {q1}");
+        assert_eq!(positions.len(), before.len() - collapses);
+        assert_eq!(weights.len(), positions.len());
+        for (p, w) in positions.iter().zip(&weights) {
+            assert_eq!(*p, before[w[0].0 as usize]);
+        }
+    }
+}
