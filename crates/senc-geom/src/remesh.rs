@@ -503,6 +503,34 @@ mod tests {
         assert_eq!(out.mesh.faces(), ridge.faces());
     }
 
+    /// A strip one row of needles wide: every triangle is bad, and only the two end rungs
+    /// (boundary edges) may collapse; every other short edge joins the two boundaries. The
+    /// clean-up stops, reports what is left, and hands back a valid mesh; a coarse sphere
+    /// with a tiny `max_passes` also stops.
+    #[test]
+    fn hopeless_inputs_terminate_and_report() {
+        let strip = grid_sheet(1.0, 1e-3, 40, 1).unwrap();
+        let out = improve(&strip, &RemeshConfig::default()).unwrap();
+        let bad = (0..out.mesh.n_faces())
+            .filter(|&f| {
+                let [a, b, c] = out.mesh.triangle(f);
+                quality(&a, &b, &c) < 0.2
+            })
+            .count();
+        assert_eq!(out.remaining_bad, bad);
+        assert!(bad >= strip.n_faces() - 4, "{out:?}");
+        assert!(out.mesh.n_vertices() >= strip.n_vertices() - 2);
+        assert_eq!(out.mesh.topology().boundary_loops().len(), 1);
+        assert!(out.worst_after >= out.worst_before);
+        check_source(&strip, &out);
+
+        let sphere = jitter(&icosphere(Vec3::zeros(), 1.0, 1).unwrap(), 0.45, 3).unwrap();
+        let strict = RemeshConfig { min_quality: 0.95, max_passes: 1, ..RemeshConfig::default() };
+        let out = improve(&sphere, &strict).unwrap();
+        assert!(out.mesh.topology().boundary_loops().is_empty());
+        check_source(&sphere, &out);
+    }
+
     /// A closed jittered sphere with several needles made by pulling vertices onto their
     /// neighbours: stays closed (no boundary), encloses almost the same volume, and every
     /// needle is gone.
