@@ -218,6 +218,15 @@ mod tests {
             assert_eq!(got, brute_pairs(&p, r), "seed {seed}, n {n}, r {r}");
             assert!(seed == 5 || !got.is_empty() || r < 0.02, "test should find pairs");
         }
+        // A lattice around the origin whose points sit exactly on cell faces (spacing r/2,
+        // negative coordinates too): every pair of neighbouring cells must be visited once.
+        let r = 0.1;
+        let p: Vec<Vec3> = (0..7 * 7 * 7)
+            .map(|k| Vec3::new((k % 7) as f64, (k / 7 % 7) as f64, (k / 49) as f64) * (r / 2.0) - Vec3::repeat(0.15))
+            .collect();
+        let got = radius_pairs(&p, r);
+        assert_eq!(got, brute_pairs(&p, r));
+        assert!(got.len() > 7 * 7 * 7, "{} pairs", got.len());
     }
 
     #[test]
