@@ -175,6 +175,30 @@ pub fn scene_material(g: &Garment) -> Result<Material, TrainError> {
     Ok(Material { mu, lambda, thickness: mc.thickness, bending_stiffness: mc.bending, density: mc.density })
 }
 
+/// Scales the rigid-translation part of a position gradient by `w`: with `ḡ = Σ g_i / Σ m_i`
+/// over the free (not `pinned`, sorted) vertices, `g_i ← g_i + (w − 1) m_i ḡ` there. The
+/// part orthogonal to translation (in the mass metric) is unchanged; pinned vertices are
+/// left alone.
+pub(crate) fn weight_translation(grad: &mut [Vec3], mass: &[f64], pinned: &[usize], w: f64) {
+    let free = |i: usize| pinned.binary_search(&i).is_err();
+    let (mut sum, mut m) = (Vec3::zeros(), 0.0);
+    for (i, (g, &mi)) in grad.iter().zip(mass).enumerate() {
+        if free(i) {
+            sum += g;
+            m += mi;
+        }
+    }
+    if m <= 0.0 {
+        return;
+    }
+    let mean = sum / m;
+    for (i, (g, &mi)) in grad.iter_mut().zip(mass).enumerate() {
+        if free(i) {
+            *g += mean * ((w - 1.0) * mi);
+        }
+    }
+}
+
 fn finite(v: &[Vec3]) -> bool {
     v.iter().all(|p| p.iter().all(|c| c.is_finite()))
 }
@@ -512,6 +536,10 @@ impl Trainer {
         let ok = evaluated.filter(|b| b.total.is_finite() && finite(&grad));
         let mut stepped = false;
         if let Some(b) = ok {
+            let w = self.config.train.translation_weight;
+            if w != 1.0 {
+                weight_translation(&mut grad, em.masses(), &g.pinned, w);
+            }
             report.loss = b.total;
             report.terms = b.terms.clone();
             let grads = senc_model::surrogate_backward(accel_t, &grad)?;
@@ -659,5 +687,48 @@ impl Trainer {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(n: usize) -> (Vec<Vec3>, Vec<f64>) {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let g = (0..n).map(|_| Vec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, rng.random())).collect();
+        let m = (0..n).map(|_| 0.5 + rng.random::<f64>()).collect();
+        (g, m)
+    }
+
+    #[test]
+    fn translation_part_is_scaled_and_the_rest_kept() {
+        let (g0, m) = sample(40);
+        let pinned = vec![3, 17, 30];
+        let free: Vec<usize> = (0..40).filter(|i| !pinned.contains(i)).collect();
+        let mean = |g: &[Vec3]| free.iter().map(|&i| g[i]).sum::<Vec3>() / free.iter().map(|&i| m[i]).sum::<f64>();
+        for w in [0.0, 1.0, 25.0] {
+            let mut g = g0.clone();
+            weight_translation(&mut g, &m, &pinned, w);
+            for &i in &pinned {
+                assert_eq!(g[i], g0[i], "pinned vertex {i} changed");
+            }
+            let (a, b) = (mean(&g0), mean(&g));
+            assert!((b - a * w).norm() < 1e-12 * (1.0 + a.norm() * w), "w = {w}: mean {b:?}, want {:?}", a * w);
+            for &i in &free {
+                let (r0, r) = (g0[i] - a * m[i], g[i] - b * m[i]);
+                assert!((r - r0).norm() < 1e-12, "w = {w}: orthogonal part of vertex {i} changed");
+            }
+        }
+    }
+
+    #[test]
+    fn all_pinned_or_massless_leaves_the_gradient() {
+        let (g0, m) = sample(5);
+        let mut g = g0.clone();
+        weight_translation(&mut g, &m, &[0, 1, 2, 3, 4], 10.0);
+        assert_eq!(g, g0);
+        weight_translation(&mut g, &[0.0; 5], &[], 10.0);
+        assert_eq!(g, g0);
     }
 }

@@ -216,3 +216,27 @@ fn rescaled_velocity_is_the_same_velocity() {
         assert!(((c - p) * 30.0 - v).norm() < 1e-12);
     }
 }
+
+/// Every committed run config (configs/ and configs/experiments/) parses, validates and
+/// names scene files that exist, so configs cannot silently rot as keys change.
+#[test]
+fn every_committed_config_parses() {
+    let mut files = Vec::new();
+    for dir in ["configs", "configs/experiments"] {
+        for e in std::fs::read_dir(root().join(dir)).unwrap() {
+            let p = e.unwrap().path();
+            if p.extension().is_some_and(|x| x == "toml") {
+                files.push(p);
+            }
+        }
+    }
+    assert!(files.len() > 20, "found only {} configs", files.len());
+    for p in files {
+        let cfg = senc_train::RunConfig::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        let scenes = cfg.scene_files();
+        assert!(!scenes.is_empty(), "{}: no [scene] and no [train] scenes", p.display());
+        for s in scenes {
+            assert!(s.is_file(), "{}: scene file {} is missing", p.display(), s.display());
+        }
+    }
+}
