@@ -199,6 +199,16 @@ pub(crate) fn weight_translation(grad: &mut [Vec3], mass: &[f64], pinned: &[usiz
     }
 }
 
+/// Adds the velocity `dv` to the free (not `pinned`, sorted) vertices of a state given by
+/// `prev` and the (unchanged) current positions: `prev_i ← prev_i − dv Δt`.
+pub(crate) fn add_velocity(prev: &mut [Vec3], pinned: &[usize], dv: Vec3, dt: f64) {
+    for (i, p) in prev.iter_mut().enumerate() {
+        if pinned.binary_search(&i).is_err() {
+            *p -= dv * dt;
+        }
+    }
+}
+
 fn finite(v: &[Vec3]) -> bool {
     v.iter().all(|p| p.iter().all(|c| c.is_finite()))
 }
@@ -425,6 +435,14 @@ impl Trainer {
                 *p += d;
                 *c += d;
             }
+        }
+        // Not in warm-up: the output normaliser learns the skinned garment's response.
+        let warm = self.progress.warmup_done < t.warmup_iterations;
+        if t.velocity_noise_std > 0.0 && !first && !warm {
+            let normal = Normal::new(0.0, t.velocity_noise_std).map_err(|e| TrainError::Invalid(e.to_string()))?;
+            let dv =
+                Vec3::new(normal.sample(&mut self.rng), normal.sample(&mut self.rng), normal.sample(&mut self.rng));
+            add_velocity(&mut prev, &g.pinned, dv, g.scene.dt());
         }
         self.sequence_id += 1;
         Ok(Sequence {
@@ -719,6 +737,20 @@ mod tests {
                 let (r0, r) = (g0[i] - a * m[i], g[i] - b * m[i]);
                 assert!((r - r0).norm() < 1e-12, "w = {w}: orthogonal part of vertex {i} changed");
             }
+        }
+    }
+
+    #[test]
+    fn added_velocity_moves_free_vertices_only() {
+        let (curr, _) = sample(10);
+        let prev0: Vec<Vec3> = curr.iter().map(|c| c - Vec3::new(0.01, 0.0, -0.02)).collect();
+        let mut prev = prev0.clone();
+        let (dv, dt) = (Vec3::new(0.3, -0.6, 0.9), 1.0 / 30.0);
+        add_velocity(&mut prev, &[2, 5], dv, dt);
+        for i in 0..10 {
+            let (v0, v) = ((curr[i] - prev0[i]) / dt, (curr[i] - prev[i]) / dt);
+            let want = if i == 2 || i == 5 { v0 } else { v0 + dv };
+            assert!((v - want).norm() < 1e-12, "vertex {i}: velocity {v:?}, want {want:?}");
         }
     }
 
