@@ -177,8 +177,16 @@ pub fn bench_ops(graph: &GraphInputs, l: usize, reps: usize) -> Vec<(String, f64
                 time_median(reps, || finish(ln.forward(lin.forward(ev.clone())))),
             ),
             (
-                format!("linear + layernorm (senc) [{e},{l}]"),
+                format!("layernorm (senc, hand-written backward) [{e},{l}]"),
+                time_median(reps, || finish(senc_layer_norm(ev.clone(), &ln))),
+            ),
+            (
+                format!("linear + layernorm (senc, folded mean) [{e},{l}]"),
                 time_median(reps, || finish(crate::network::linear_layer_norm(ev.clone(), &lin, &ln))),
+            ),
+            (
+                format!("linear + layernorm (senc, hand-written backward) [{e},{l}]"),
+                time_median(reps, || finish(senc_layer_norm(lin.forward(ev.clone()), &ln))),
             ),
             (format!("relu [{e},{l}]"), time_median(reps, || finish(burn::tensor::activation::relu(ev.clone())))),
             (format!("add [{e},{l}]"), time_median(reps, || finish(ev.clone() + ev.clone()))),
@@ -192,6 +200,12 @@ pub fn bench_ops(graph: &GraphInputs, l: usize, reps: usize) -> Vec<(String, f64
         }
     }
     out
+}
+
+/// The training path's LayerNorm: the hand-written node where it applies (flex autodiff),
+/// burn's own otherwise.
+fn senc_layer_norm(x: Tensor<2>, ln: &burn::nn::LayerNorm) -> Tensor<2> {
+    crate::layer_norm::layer_norm(&x, ln).unwrap_or_else(|| ln.forward(x))
 }
 
 /// Writes `graph`'s sizes and indices for `tools/bench_torch.py`: `<stem>.json` with the

@@ -178,7 +178,7 @@ impl HostMlp {
 /// Runs `f` compiled for the best instruction set this CPU has (AVX-512, AVX2, …; chosen at
 /// run time by `pulp`), so that the element-wise loops below vectorise on any x86-64 build.
 #[inline(always)]
-fn simd<R>(f: impl FnOnce() -> R) -> R {
+pub(crate) fn simd<R>(f: impl FnOnce() -> R) -> R {
     pulp::Arch::new().dispatch(f)
 }
 
@@ -201,11 +201,11 @@ fn add_assign(x: &mut [f32], y: &[f32]) {
 
 /// Lanes of the partial sums in [`row_sum`]: one AVX-512 register of f32, so the reduction
 /// vectorises (a single running sum cannot be reordered by the compiler).
-const LANES: usize = 16;
+pub(crate) const LANES: usize = 16;
 
 /// `Σ f(x_i)` over a row with [`LANES`] partial sums.
 #[inline(always)]
-fn row_sum(row: &[f32], f: impl Fn(f32) -> f32) -> f32 {
+pub(crate) fn row_sum(row: &[f32], f: impl Fn(f32) -> f32) -> f32 {
     let mut acc = [0.0f32; LANES];
     let chunks = row.chunks_exact(LANES);
     let tail: f32 = chunks.remainder().iter().map(|&v| f(v)).sum();

@@ -44,6 +44,7 @@ pub mod convert;
 pub mod error;
 pub mod fused;
 pub mod graph;
+pub mod layer_norm;
 pub mod model;
 pub mod network;
 pub mod normalizer;

@@ -140,8 +140,10 @@ impl Mlp {
     /// Everything after the first layer's pre-activation: ReLU, the other layers, LayerNorm.
     /// `[n, hidden] → [n, out]`.
     ///
-    /// On an autodiff device the last layer and the LayerNorm run as [`linear_layer_norm`]
-    /// (cheaper to differentiate); otherwise burn's fused LayerNorm kernel does the norm.
+    /// Training on the CPU (flex autodiff) uses [`crate::layer_norm`], one autodiff node with
+    /// a hand-written backward; other autodiff backends run the last layer and the norm as
+    /// [`linear_layer_norm`] (cheaper to differentiate than burn's decomposition); inference
+    /// uses burn's fused LayerNorm kernel.
     fn finish(&self, pre: Tensor<2>) -> Tensor<2> {
         let mut x = pre;
         let (last, inner) = self.layers.split_last().expect("an MLP has at least one layer");
@@ -149,6 +151,10 @@ impl Mlp {
             x = layer.forward(relu(x));
         }
         match &self.norm {
+            Some(norm) if crate::layer_norm::supported(&x) => {
+                let pre = last.forward(relu(x));
+                crate::layer_norm::layer_norm(&pre, norm).unwrap_or_else(|| norm.forward(pre))
+            }
             Some(norm) if x.is_autodiff() => linear_layer_norm(relu(x), last, norm),
             Some(norm) => norm.forward(last.forward(relu(x))),
             None => last.forward(relu(x)),
@@ -351,5 +357,94 @@ mod tests {
         for (what, a, b) in pairs {
             assert_close(what, a, b);
         }
+    }
+}
+
+#[cfg(test)]
+mod layer_norm_tests {
+    use burn::nn::LayerNormConfig;
+    use burn::tensor::TensorData;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    use super::*;
+    use crate::convert::tensor_to_f64;
+    use crate::layer_norm::{layer_norm, supported};
+
+    fn random(rng: &mut ChaCha8Rng, shape: [usize; 2], scale: f32, offset: f32, device: &Device) -> Tensor<2> {
+        let v: Vec<f32> = (0..shape[0] * shape[1]).map(|_| offset + scale * rng.random_range(-1.0f32..1.0)).collect();
+        Tensor::from_data(TensorData::new(v, shape), device)
+    }
+
+    fn max_abs_diff(a: Tensor<2>, b: Tensor<2>) -> (f64, f64) {
+        let (a, b) = (tensor_to_f64(a), tensor_to_f64(b));
+        let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        (a.iter().zip(&b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())), scale)
+    }
+
+    fn norm_with(rng: &mut ChaCha8Rng, l: usize, beta: bool, device: &Device) -> LayerNorm {
+        let mut norm = LayerNormConfig::new(l).with_epsilon(LAYER_NORM_EPSILON).with_bias(beta).init(device);
+        norm.gamma = burn::module::Param::from_tensor(random(rng, [1, l], 0.5, 1.0, device).reshape([l]));
+        if beta {
+            norm.beta = Some(burn::module::Param::from_tensor(random(rng, [1, l], 0.5, 0.0, device).reshape([l])));
+        }
+        norm
+    }
+
+    /// The hand-written LayerNorm node equals burn's own LayerNorm (differentiated through its
+    /// decomposition) in values and in the gradients of x, γ and β: widths with and without a
+    /// SIMD remainder, row counts over several parallel chunks, with and without β, rows with
+    /// large offsets and one constant row (zero variance).
+    #[test]
+    fn hand_written_layer_norm_matches_burn() {
+        let device = Device::flex().autodiff();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for (n, l, beta) in [(5usize, 3usize, true), (700, 128, true), (300, 37, false), (257, 16, true)] {
+            let norm = norm_with(&mut rng, l, beta, &device);
+            let mut x = random(&mut rng, [n, l], 2.0, 3.0, &device);
+            x = x.slice_assign([0..1, 0..l], Tensor::<2>::ones([1, l], &device) * 4.0); // constant row
+            let x = x.require_grad();
+            let w = random(&mut rng, [n, l], 1.0, 0.0, &device);
+            assert!(supported(&x));
+            let ours = layer_norm(&x, &norm).expect("flex autodiff takes the hand-written path");
+            let theirs = norm.forward(x.clone());
+            let (d, _) = max_abs_diff(ours.clone(), theirs.clone());
+            assert!(d < 2e-5, "values differ by {d} (n={n}, L={l})");
+
+            let g_ours = (ours * w.clone()).sum().backward();
+            let g_theirs = (theirs * w).sum().backward();
+            let mut pairs = vec![
+                ("dx", x.grad(&g_ours).unwrap(), x.grad(&g_theirs).unwrap()),
+                (
+                    "dgamma",
+                    norm.gamma.val().grad(&g_ours).unwrap().unsqueeze(),
+                    norm.gamma.val().grad(&g_theirs).unwrap().unsqueeze(),
+                ),
+            ];
+            if let Some(b) = &norm.beta {
+                pairs.push((
+                    "dbeta",
+                    b.val().grad(&g_ours).unwrap().unsqueeze(),
+                    b.val().grad(&g_theirs).unwrap().unsqueeze(),
+                ));
+            }
+            for (what, a, b) in pairs {
+                assert!(tensor_to_f64(a.clone()).iter().all(|v| v.is_finite()), "{what} not finite");
+                let (d, scale) = max_abs_diff(a, b);
+                assert!(scale > 1e-3, "{what}: all zero");
+                assert!(d <= 1e-4 * scale, "{what} differs by {d} at scale {scale} (n={n}, L={l})");
+            }
+        }
+    }
+
+    /// Inference tensors are not taken: burn's fused kernel serves them.
+    #[test]
+    fn hand_written_layer_norm_only_under_flex_autodiff() {
+        let plain = Device::flex();
+        let mut rng = ChaCha8Rng::seed_from_u64(6);
+        let norm = norm_with(&mut rng, 8, true, &plain);
+        let x = random(&mut rng, [4, 8], 1.0, 0.0, &plain);
+        assert!(!supported(&x));
+        assert!(layer_norm(&x, &norm).is_none());
     }
 }
