@@ -24,6 +24,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{CommandFactory, Parser, Subcommand};
 
+mod alloc;
 mod bench;
 mod check_mesh;
 mod data;
@@ -248,6 +249,7 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
+    alloc::keep_freed_memory();
     let cli = Cli::parse();
     let result: Result<()> = match cli.command {
         None => {
