@@ -288,6 +288,17 @@ impl Trainer {
         let bytes = std::fs::read(&ppath).map_err(|e| TrainError::io(&ppath, e))?;
         let progress: Progress = rmp_serde::from_slice(&bytes)
             .map_err(|e| TrainError::Checkpoint { path: ppath.clone(), message: e.to_string() })?;
+        let mut progress: Progress = progress;
+        // A finished run whose config now asks for more phase-2 iterations goes on training
+        // (extending a run: raise `phase2_iterations` in OUT/latest/config.toml, then resume).
+        if progress.finished && progress.phase == 2 && progress.iteration < config.train.phase2_iterations {
+            tracing::info!(
+                done = progress.iteration,
+                target = config.train.phase2_iterations,
+                "finished run extended: phase 2 continues"
+            );
+            progress.finished = false;
+        }
         let mut rng = ChaCha8Rng::seed_from_u64(config.train.seed);
         rng.set_word_pos(progress.rng_word_pos);
         // Drop loss rows logged after the checkpoint (they are about to be redone).

@@ -96,6 +96,42 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// A finished run whose saved config asks for more phase-2 iterations continues on
+/// `resume` from where it stopped; with the same count it stays finished.
+#[test]
+fn finished_run_extends_when_its_config_asks_for_more() {
+    let d = tmp("extend");
+    let cfg = tiny_config(&d);
+    let out = d.join("run");
+    let mut t = Trainer::new(&cfg, &out).unwrap();
+    t.run(None, |_| {}).unwrap();
+    assert!(t.finished());
+    drop(t);
+    let same = Trainer::resume(&out).unwrap();
+    assert!(same.finished(), "an unchanged config stays finished");
+    drop(same);
+    let latest = out.join("latest/config.toml");
+    let text = std::fs::read_to_string(&latest).unwrap();
+    assert!(text.contains("phase2_iterations = 4"), "{text}");
+    std::fs::write(&latest, text.replace("phase2_iterations = 4", "phase2_iterations = 7")).unwrap();
+    let before = flat_params(&Model::load(&out.join("phase2"), &Device::flex()).unwrap().network);
+    let mut t = Trainer::resume(&out).unwrap();
+    assert!(!t.finished());
+    let mut phase2_steps = 0;
+    t.run(None, |r| {
+        if r.phase == 2 {
+            phase2_steps += 1
+        }
+    })
+    .unwrap();
+    assert!(t.finished());
+    assert_eq!(phase2_steps, 3, "iterations 5, 6 and 7 of phase 2");
+    assert_eq!(t.progress.iteration, 7);
+    let after = flat_params(&Model::load(&out.join("phase2"), &Device::flex()).unwrap().network);
+    assert_ne!(before, after, "phase2/ holds the extended weights");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 #[test]
 fn bad_config_is_an_error_naming_the_key() {
     let d = tmp("bad");
