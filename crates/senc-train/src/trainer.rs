@@ -283,7 +283,7 @@ impl Trainer {
         let opath = dir.join(OPTIM_FILE);
         let record = OptimizerRecord::load(&opath)
             .map_err(|e| TrainError::Checkpoint { path: opath.clone(), message: format!("{e:?}") })?;
-        let optim = AdamConfig::new().init().load_record(record);
+
         let ppath = dir.join(PROGRESS_FILE);
         let bytes = std::fs::read(&ppath).map_err(|e| TrainError::io(&ppath, e))?;
         let progress: Progress = rmp_serde::from_slice(&bytes)
@@ -299,6 +299,14 @@ impl Trainer {
             );
             progress.finished = false;
         }
+        // Phase 2 starts with a fresh Adam state (see `end_phase`); a checkpoint taken at
+        // that start by older code (a copy of OUT/phase1) may still hold phase 1's moments,
+        // which must not leak into phase 2.
+        let optim = if progress.phase == 2 && progress.iteration == 0 {
+            AdamConfig::new().init()
+        } else {
+            AdamConfig::new().init().load_record(record)
+        };
         let mut rng = ChaCha8Rng::seed_from_u64(config.train.seed);
         rng.set_word_pos(progress.rng_word_pos);
         // Drop loss rows logged after the checkpoint (they are about to be redone).
@@ -639,11 +647,12 @@ impl Trainer {
         if p == 1 {
             self.progress.phase = 2;
             self.progress.iteration = 0;
-            self.checkpoint(&dir)?;
-            tracing::info!(dir = %dir.display(), skipped = self.progress.skipped[0], "phase 1 done");
-            // Phase 2 starts from phase 1's weights with a fresh Adam state.
+            // Phase 2 starts from phase 1's weights with a fresh Adam state; OUT/phase1 is
+            // saved with it, so that phase 2 can be (re)started from a copy of it exactly.
             self.optim = AdamConfig::new().init();
             self.energy_cache = None;
+            self.checkpoint(&dir)?;
+            tracing::info!(dir = %dir.display(), skipped = self.progress.skipped[0], "phase 1 done");
         } else {
             self.progress.finished = true;
             self.checkpoint(&dir)?;

@@ -132,6 +132,34 @@ fn finished_run_extends_when_its_config_asks_for_more() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// Phase 2 restarted from a copy of `OUT/phase1` (how the ablations that share SENC's
+/// phase 1 are trained) gives the same phase-2 weights as the uninterrupted run: phase 2's
+/// fresh Adam state is what `phase1/` holds.
+#[test]
+fn phase2_from_a_copy_of_phase1_equals_the_uninterrupted_run() {
+    let d = tmp("phase1copy");
+    let cfg = tiny_config(&d);
+    let a = d.join("a");
+    let mut t = Trainer::new(&cfg, &a).unwrap();
+    t.run(None, |_| {}).unwrap();
+    drop(t);
+    let b = d.join("b");
+    std::fs::create_dir_all(b.join("latest")).unwrap();
+    for f in std::fs::read_dir(a.join("phase1")).unwrap() {
+        let f = f.unwrap().path();
+        std::fs::copy(&f, b.join("latest").join(f.file_name().unwrap())).unwrap();
+    }
+    let mut t = Trainer::resume(&b).unwrap();
+    assert_eq!((t.progress.phase, t.progress.iteration), (2, 0));
+    t.run(None, |_| {}).unwrap();
+    assert!(t.finished());
+    let params = |dir: &Path| flat_params(&Model::load(dir, &Device::flex()).unwrap().network);
+    let (wa, wb) = (params(&a.join("phase2")), params(&b.join("phase2")));
+    let diff = wa.iter().zip(&wb).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+    assert!(wa.len() == wb.len() && diff == 0.0, "phase 2 from phase1/ differs by up to {diff}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 #[test]
 fn bad_config_is_an_error_naming_the_key() {
     let d = tmp("bad");
