@@ -64,7 +64,9 @@ impl Model {
         }
         meta.normalizers.validate(meta.config.coarse_levels)?;
         let weights = dir.join(WEIGHTS_FILE);
-        let network = meta.config.init(device).try_load_file(&weights).map_err(|e| err(&weights, format!("{e:?}")))?;
+        let network = crate::model::init_network(&meta.config, None, device)
+            .try_load_file(&weights)
+            .map_err(|e| err(&weights, format!("{e:?}")))?;
         Ok(Model {
             network,
             config: meta.config,

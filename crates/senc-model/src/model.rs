@@ -30,14 +30,39 @@ pub struct Model {
     pub device: Device,
 }
 
+/// Draws a network's initial weights from burn's generator, seeded first when `seed` is
+/// given. burn's generator is global and burn initialises parameters lazily (at first
+/// use), so the draws are forced here, inside one process-wide lock: otherwise a model
+/// initialised or loaded on another thread (a load draws initial weights too, then
+/// overwrites them) shifts the numbers this seed gives (seen as flaky resume tests).
+pub(crate) fn init_network(config: &ModelConfig, seed: Option<u64>, device: &Device) -> Network {
+    static INIT: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _guard = INIT.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some(seed) = seed {
+        device.seed(seed);
+    }
+    let network = config.init(device);
+    network.visit(&mut ForceInit);
+    network
+}
+
+/// Touches every parameter so that its lazy initialisation runs now.
+struct ForceInit;
+
+impl burn::module::ModuleVisitor for ForceInit {
+    fn visit_float<const D: usize>(&mut self, param: &burn::module::Param<burn::tensor::Tensor<D>>) {
+        let _ = param.val();
+    }
+}
+
 impl Model {
     /// A freshly initialised model. `seed` seeds the device's generator before the weights
-    /// are drawn (burn's generator may be global, so concurrent initialisations on other
-    /// threads can interleave; tests that need identical weights share one model instead).
+    /// are drawn. burn's generator is global, so seeding and drawing hold a process-wide
+    /// lock: two models initialised at once on different threads (parallel tests, several
+    /// trainers in one process) each get exactly the weights of their seed.
     /// `graph.coarse_levels` is overwritten by `config.coarse_levels`.
     pub fn new(config: ModelConfig, mut graph: GraphConfig, seed: u64, device: &Device) -> Self {
-        device.seed(seed);
-        let network = config.init(device);
+        let network = init_network(&config, Some(seed), device);
         graph.coarse_levels = config.coarse_levels.min(crate::graph::MAX_COARSE_LEVELS);
         let normalizers = Normalizers::new(graph.coarse_levels);
         Self { network, config, graph, normalizers, device: device.clone() }
