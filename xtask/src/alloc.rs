@@ -6,8 +6,8 @@
 //! trims the heap top after every large free, so the same pages are faulted in and zeroed by
 //! the kernel again and again: a third of the HOOD-size forward + backward was kernel time.
 //! Keeping freed memory in the heap removes most of it (`cargo xtask bench model --sizes
-//! hood --quick`: forward + backward 11.6 → 8.4 s, forward 5.2 → 3.0 s; reports/bench/
-//! model-hood.md). The process keeps its peak heap until it exits, which is what a training
+//! hood --quick`, two runs each: forward + backward 11.5 / 11.8 → 8.8 / 7.7 s, forward
+//! 5.4 / 5.1 → 3.5 / 3.6 s; reports/bench/model-hood.md). The process keeps its peak heap until it exits, which is what a training
 //! or benchmark run wants anyway.
 
 /// Serve every allocation from the heap (no per-block `mmap`) and never trim the heap top.

@@ -286,9 +286,8 @@ impl Trainer {
 
         let ppath = dir.join(PROGRESS_FILE);
         let bytes = std::fs::read(&ppath).map_err(|e| TrainError::io(&ppath, e))?;
-        let progress: Progress = rmp_serde::from_slice(&bytes)
+        let mut progress: Progress = rmp_serde::from_slice(&bytes)
             .map_err(|e| TrainError::Checkpoint { path: ppath.clone(), message: e.to_string() })?;
-        let mut progress: Progress = progress;
         // A finished run whose config now asks for more phase-2 iterations goes on training
         // (extending a run: raise `phase2_iterations` in OUT/latest/config.toml, then resume).
         if progress.finished && progress.phase == 2 && progress.iteration < config.train.phase2_iterations {

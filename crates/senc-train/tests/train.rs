@@ -30,6 +30,11 @@ fn tiny_config(dir: &Path) -> PathBuf {
     p
 }
 
+/// The flat parameter vector of the checkpoint in `dir`.
+fn params(dir: &Path) -> Vec<f64> {
+    flat_params(&Model::load(dir, &Device::flex()).unwrap().network)
+}
+
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("senc-train-test-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -66,7 +71,6 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     assert!(t.finished());
     let lines = |d: &Path| std::fs::read_to_string(d.join("losses.csv")).unwrap().lines().count();
     assert_eq!(lines(&b), lines(&a), "the resumed CSV has no duplicate rows");
-    let params = |dir: &Path| flat_params(&Model::load(dir, &Device::flex()).unwrap().network);
     for phase in ["phase1", "phase2"] {
         let wa = params(&a.join(phase));
         let wb = params(&b.join(phase));
@@ -114,7 +118,7 @@ fn finished_run_extends_when_its_config_asks_for_more() {
     let text = std::fs::read_to_string(&latest).unwrap();
     assert!(text.contains("phase2_iterations = 4"), "{text}");
     std::fs::write(&latest, text.replace("phase2_iterations = 4", "phase2_iterations = 7")).unwrap();
-    let before = flat_params(&Model::load(&out.join("phase2"), &Device::flex()).unwrap().network);
+    let before = params(&out.join("phase2"));
     let mut t = Trainer::resume(&out).unwrap();
     assert!(!t.finished());
     let mut phase2_steps = 0;
@@ -127,7 +131,7 @@ fn finished_run_extends_when_its_config_asks_for_more() {
     assert!(t.finished());
     assert_eq!(phase2_steps, 3, "iterations 5, 6 and 7 of phase 2");
     assert_eq!(t.progress.iteration, 7);
-    let after = flat_params(&Model::load(&out.join("phase2"), &Device::flex()).unwrap().network);
+    let after = params(&out.join("phase2"));
     assert_ne!(before, after, "phase2/ holds the extended weights");
     let _ = std::fs::remove_dir_all(&d);
 }
@@ -153,7 +157,6 @@ fn phase2_from_a_copy_of_phase1_equals_the_uninterrupted_run() {
     assert_eq!((t.progress.phase, t.progress.iteration), (2, 0));
     t.run(None, |_| {}).unwrap();
     assert!(t.finished());
-    let params = |dir: &Path| flat_params(&Model::load(dir, &Device::flex()).unwrap().network);
     let (wa, wb) = (params(&a.join("phase2")), params(&b.join("phase2")));
     let diff = wa.iter().zip(&wb).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
     assert!(wa.len() == wb.len() && diff == 0.0, "phase 2 from phase1/ differs by up to {diff}");
