@@ -307,3 +307,44 @@ fn every_committed_config_parses() {
         }
     }
 }
+
+/// The networks committed in `checkpoints/` still load with the current code and give the
+/// rollout they gave when they were committed: mean cloth displacement from the start after
+/// three frames of the first test motion, to 1 mm (session 9's values). A change to the
+/// checkpoint format, the features, the graph or the network that silently changes what a
+/// trained checkpoint computes fails here; retrain the checkpoints (`checkpoints/README.md`)
+/// and update the values then.
+#[test]
+fn committed_checkpoints_load_and_give_their_recorded_rollout() {
+    use senc_train::garment::Garment;
+    use senc_train::rollout::rollout;
+    use senc_train::trainer::scene_material;
+    let expected: &[(&str, [f64; 3])] = &[
+        ("skirt", [0.020323, 0.095654, 0.027059]),
+        ("skirt-baseline", [0.018403, 0.071732, 0.043110]),
+        ("tshirt", [0.037888, 0.027917, 0.025291]),
+        ("tshirt-baseline", [0.028812, 0.085246, 0.048326]),
+    ];
+    let mut found: Vec<String> = std::fs::read_dir(root().join("checkpoints"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_dir())
+        .map(|p| p.file_name().unwrap().to_string_lossy().to_string())
+        .collect();
+    found.sort();
+    assert_eq!(found, expected.iter().map(|(n, _)| n.to_string()).collect::<Vec<_>>());
+    for (name, want) in expected {
+        let dir = root().join("checkpoints").join(name);
+        let source = std::fs::read_to_string(dir.join("source.txt")).unwrap();
+        let cfg = senc_train::RunConfig::read(root().join(source.trim())).unwrap();
+        let g = Garment::load(&senc_train::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
+        let model = Model::load(&dir, &Device::flex()).unwrap();
+        let material = scene_material(&g).unwrap();
+        let r = rollout(&model, &g, &g.scene.test[0], 3, senc_geom::Vec3::zeros(), &material).unwrap();
+        let (x0, x3) = (&r.cloth[0], &r.cloth[3]);
+        assert!(x3.iter().all(|v| v.iter().all(|c| c.is_finite())), "{name}: non-finite rollout");
+        let mean = x0.iter().zip(x3).map(|(a, b)| b - a).sum::<senc_geom::Vec3>() / x0.len() as f64;
+        let err = (mean - senc_geom::Vec3::from(*want)).norm();
+        assert!(err < 1e-3, "{name}: mean displacement after 3 frames {mean:?}, recorded {want:?}");
+    }
+}
