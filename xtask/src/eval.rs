@@ -1,5 +1,5 @@
 //! `cargo xtask eval --checkpoint DIR [--compare DIR ...] [--config C.toml ...] [--garment G]
-//! [--out reports]`: Table 1 (penetration volume, L_self-col, % frames above thresholds,
+//! [--refine N,...] [--out reports]`: Table 1 (penetration volume, L_self-col, % frames above thresholds,
 //! body penetration, FPS) and the error against run time (reference solver budgets against
 //! each network).
 //!
@@ -73,13 +73,16 @@ pub fn run(
     compare: &[PathBuf],
     configs: &[PathBuf],
     garment: Option<&Path>,
+    refine: &[usize],
     out: &Path,
 ) -> Result<()> {
     let mut rows = Vec::new();
     let mut curve = Vec::new();
-    for ck in std::iter::once(checkpoint).chain(compare.iter().map(|p| p.as_path())) {
+    let refine = if refine.is_empty() { &[0][..] } else { refine };
+    let checkpoints = std::iter::once(checkpoint).chain(compare.iter().map(|p| p.as_path()));
+    for (ck, &iterations) in checkpoints.flat_map(|c| refine.iter().map(move |r| (c, r))) {
         let config = pick_config(ck, configs)?;
-        let mut m = Method::new(ck, config.as_deref())?;
+        let mut m = Method::new(ck, config.as_deref())?.with_refine(iterations);
         if let Some(g) = garment {
             let asset = prepare_garment(g, &m.config)?;
             m = m.with_garment(&asset);
@@ -98,10 +101,16 @@ pub fn run(
             row.departure_cm,
             row.fps
         );
+        if m.refine > 0 {
+            println!(
+                "  network answer rejected (refined from the inertial target) in {:.1}% of frames",
+                row.rejected_pct
+            );
+        }
         rows.push(row);
         // Solver points are per garment; keep them once per garment.
         for p in c {
-            if p.method.starts_with("solver ")
+            if p.series == "solver"
                 && curve.iter().any(|q: &senc_train::eval::CurvePoint| q.method == p.method && q.garment == p.garment)
             {
                 continue;

@@ -166,6 +166,11 @@ enum Command {
         /// `cargo xtask fit` does) or a fitted .msgpack asset. Every loop but `neck` is closed.
         #[arg(long)]
         garment: Option<PathBuf>,
+        /// Also roll each checkpoint out with every frame refined by N Newton iterations of
+        /// the reference solver (phase-2 energy), one row per value: `--refine 0,2` gives the
+        /// network alone and refined by 2. Default 0.
+        #[arg(long, value_delimiter = ',')]
+        refine: Vec<usize>,
         /// Output directory for table1.md/.csv/.json and runtime.md/.csv/.svg.
         #[arg(long, default_value = "reports")]
         out: PathBuf,
@@ -180,6 +185,10 @@ enum Command {
         /// iterations per frame on the config's phase-2 energy.
         #[arg(long)]
         solver: Option<usize>,
+        /// Refine each network frame with at most N Newton iterations of the reference
+        /// solver on the config's phase-2 energy, started from the network's answer.
+        #[arg(long, conflicts_with = "solver")]
+        refine: Option<usize>,
         /// Motion name (e.g. boxing_toes).
         #[arg(long)]
         motion: String,
@@ -279,22 +288,32 @@ fn main() -> std::process::ExitCode {
             let out = out.unwrap_or_else(|| PathBuf::from("runs").join(config.file_stem().unwrap_or_default()));
             train::run(&config, &out, resume, stop_after)
         }
-        Some(Command::Eval { checkpoint, compare, config, garment, out }) => {
-            eval::run(&checkpoint, &compare, &config, garment.as_deref(), &out)
+        Some(Command::Eval { checkpoint, compare, config, garment, refine, out }) => {
+            eval::run(&checkpoint, &compare, &config, garment.as_deref(), &refine, &out)
         }
-        Some(Command::Simulate { checkpoint, solver, motion, config, wind, frames, garment, previews, out }) => {
-            simulate::run(&simulate::Args {
-                checkpoint: checkpoint.as_deref(),
-                solver,
-                config: config.as_deref(),
-                motion: &motion,
-                wind: wind.as_deref(),
-                frames,
-                garment: garment.as_deref(),
-                previews,
-                out: &out,
-            })
-        }
+        Some(Command::Simulate {
+            checkpoint,
+            solver,
+            refine,
+            motion,
+            config,
+            wind,
+            frames,
+            garment,
+            previews,
+            out,
+        }) => simulate::run(&simulate::Args {
+            checkpoint: checkpoint.as_deref(),
+            solver,
+            refine,
+            config: config.as_deref(),
+            motion: &motion,
+            wind: wind.as_deref(),
+            frames,
+            garment: garment.as_deref(),
+            previews,
+            out: &out,
+        }),
         Some(Command::Bench { target }) => bench::run(target),
         Some(Command::Probe { config, checkpoint, states, budgets, converged }) => {
             eval::probe(&config, checkpoint.as_deref(), states, &budgets, converged)

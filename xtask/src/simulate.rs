@@ -3,7 +3,8 @@
 //! one OBJ per frame (garment and proxy body), one animated `sequence.glb` (garment and full
 //! body), and K preview PNGs (front, side and back views) spread over the sequence.
 //! `--solver N --config FILE` (no checkpoint) simulates with the reference solver instead
-//! (at most N Newton iterations per frame on the config's phase-2 energy).
+//! (at most N Newton iterations per frame on the config's phase-2 energy); `--refine N`
+//! refines each network frame with at most N such iterations started from its answer.
 
 use std::path::Path;
 
@@ -14,7 +15,7 @@ use senc_model::burn::tensor::Device;
 use senc_model::Model;
 use senc_scene::raster::{render, Layer, BODY, GARMENT_INSIDE, GARMENT_OUTSIDE};
 use senc_train::eval::Method;
-use senc_train::rollout::{rollout, solver_rollout};
+use senc_train::rollout::{network_rollout, solver_rollout, Refine};
 use senc_train::trainer::scene_material;
 use senc_train::RunConfig;
 
@@ -26,6 +27,8 @@ pub struct Args<'a> {
     pub checkpoint: Option<&'a Path>,
     /// Newton iterations per frame for a reference-solver rollout instead of a network.
     pub solver: Option<usize>,
+    /// Newton iterations refining each network frame (0 or `None`: the network alone).
+    pub refine: Option<usize>,
     /// Config (default: the checkpoint's own).
     pub config: Option<&'a Path>,
     /// Motion name.
@@ -82,7 +85,9 @@ pub fn run(a: &Args<'_>) -> Result<()> {
         }
         _ => {
             let model = Model::load(&m.checkpoint, &Device::flex())?;
-            rollout(&model, &g, motion, a.frames, ext, &material)?
+            let energy = cfg.energy_for(2, material, ext.into());
+            let refine = a.refine.map(|iterations| Refine { energy: &energy, iterations });
+            network_rollout(&model, &g, motion, a.frames, ext, &material, refine)?
         }
     };
     std::fs::create_dir_all(a.out).with_context(|| format!("creating {}", a.out.display()))?;
@@ -131,6 +136,19 @@ pub fn run(a: &Args<'_>) -> Result<()> {
         pngs.len(),
         r.steps as f64 / r.infer_seconds.max(1e-12)
     );
+    if !r.refined.is_empty() {
+        let rejected = r.refined.iter().filter(|f| f.rejected).count();
+        let mean = |e: fn(&senc_train::rollout::RefinedFrame) -> f64| {
+            r.refined.iter().map(e).sum::<f64>() / r.refined.len() as f64
+        };
+        println!(
+            "refinement: mean energy {:.3e} J (network {:.3e}, inertial target {:.3e}); network answer rejected in {rejected} of {} frames",
+            mean(|f| f.refined),
+            mean(|f| f.network),
+            mean(|f| f.inertial),
+            r.refined.len()
+        );
+    }
     Ok(())
 }
 

@@ -244,11 +244,20 @@ pub struct EvalConfig {
     pub converged_iterations: usize,
     /// Test states (frames of the network's rollout) the error-against-run-time curve uses.
     pub curve_states: usize,
+    /// Newton iterations refining the network's answer on the same states (one curve point
+    /// each, "network + N it"); empty leaves the refined points out. Default `[1, 2, 4]`.
+    pub refine_budgets: Vec<usize>,
 }
 
 impl Default for EvalConfig {
     fn default() -> Self {
-        Self { frames: 90, solver_budgets: vec![1, 2, 4, 8, 16], converged_iterations: 50, curve_states: 5 }
+        Self {
+            frames: 90,
+            solver_budgets: vec![1, 2, 4, 8, 16],
+            converged_iterations: 50,
+            curve_states: 5,
+            refine_budgets: vec![1, 2, 4],
+        }
     }
 }
 

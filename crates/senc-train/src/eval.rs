@@ -7,7 +7,12 @@
 //! only. The error-against-run-time states are frames of the network's own rollout: from
 //! each, the reference solver (senc-energy, Newton/PCG, the run's phase-2 energy and the
 //! scene's material) runs with several iteration budgets; the "converged" answer uses
-//! `[eval] converged_iterations`. Gap = E(answer) − E(converged), J.
+//! `[eval] converged_iterations`. Gap = E(answer) − E(converged), J. The same solver started
+//! from the network's answer instead (`[eval] refine_budgets`) gives the network's own
+//! curve, "network + N it", on the same states.
+//!
+//! A method with [`Method::refine`] > 0 is rolled out with each frame refined that way
+//! (`rollout::network_rollout`), so its Table-1 row measures the hybrid simulator.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -23,7 +28,7 @@ use serde::Serialize;
 use crate::config::RunConfig;
 use crate::error::TrainError;
 use crate::garment::Garment;
-use crate::rollout::{rollout, Rollout};
+use crate::rollout::{network_rollout, Refine, Rollout};
 use crate::trainer::{model_material, scene_material, CONFIG_FILE};
 
 /// A checkpoint to evaluate, with the row label and the config whose scene it runs on.
@@ -38,6 +43,8 @@ pub struct Method {
     /// A garment asset that replaces the scene's garment (an unseen garment, fitted to the
     /// body first); `None` runs the scene's own garment.
     pub garment: Option<PathBuf>,
+    /// Newton iterations (phase-2 energy) refining each network frame; 0 = the network alone.
+    pub refine: usize,
 }
 
 impl Method {
@@ -65,13 +72,29 @@ impl Method {
             Some(r) => format!("{r}/{phase}"),
             None => phase,
         };
-        Ok(Self { label, checkpoint: checkpoint.to_path_buf(), config, garment: None })
+        Ok(Self { label, checkpoint: checkpoint.to_path_buf(), config, garment: None, refine: 0 })
     }
 
     /// The reference solver on the config `config`'s scene (no checkpoint; used by
     /// `xtask simulate --solver`).
     pub fn solver(config: &Path) -> Self {
-        Self { label: "solver".into(), checkpoint: PathBuf::new(), config: config.to_path_buf(), garment: None }
+        Self {
+            label: "solver".into(),
+            checkpoint: PathBuf::new(),
+            config: config.to_path_buf(),
+            garment: None,
+            refine: 0,
+        }
+    }
+
+    /// The same method with each network frame refined by at most `iterations` Newton
+    /// iterations of the reference solver; the label gains " + N it".
+    pub fn with_refine(mut self, iterations: usize) -> Self {
+        if iterations > 0 {
+            self.label = format!("{} + {iterations} it", self.label);
+        }
+        self.refine = iterations;
+        self
     }
 
     /// The same method run on another garment asset (see [`Garment::load_unseen`]).
@@ -115,8 +138,11 @@ pub struct Row {
     /// is cloth dynamics (a skirt swings); tens of cm mean the rollout has drifted off the
     /// body, and its volumes describe no plausible garment.
     pub departure_cm: f64,
-    /// Frames per second (graph + network).
+    /// Frames per second (graph + network, and the refinement for a refined method).
     pub fps: f64,
+    /// Share of frames whose refinement started from the inertial target because the
+    /// network's answer had the higher energy, %; 0 without refinement.
+    pub rejected_pct: f64,
 }
 
 /// One point of the error-against-run-time comparison (averaged over the test states).
@@ -130,6 +156,9 @@ pub struct CurvePoint {
     pub ms_per_frame: f64,
     /// Mean energy gap to the converged reference, J.
     pub energy_gap: f64,
+    /// The curve this point belongs to: "solver", or the network's label (its refined points
+    /// share it).
+    pub series: String,
     /// Mean penetration volume of the answers, cm³.
     pub volume_cm3: f64,
 }
@@ -178,7 +207,7 @@ pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
     let ext = Vec3::from(g.scene.config.external_force.acceleration);
     let mut meter = VolumeMeter::new(&g)?;
     let (mut vols, mut body_pct, mut departure) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut secs, mut steps) = (0.0, 0);
+    let (mut secs, mut steps, mut rejected) = (0.0, 0, 0);
     let mut rollouts: Vec<(usize, Rollout)> = Vec::new();
     if g.scene.test.is_empty() {
         return Err(TrainError::Invalid(format!(
@@ -187,9 +216,12 @@ pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
         )));
     }
     for (mi, motion) in g.scene.test.iter().enumerate() {
-        let r = rollout(&model, &g, motion, cfg.eval.frames, ext, &material)?;
+        let energy = cfg.energy_for(2, material, ext.into());
+        let refine = Some(Refine { energy: &energy, iterations: method.refine });
+        let r = network_rollout(&model, &g, motion, cfg.eval.frames, ext, &material, refine)?;
         secs += r.infer_seconds;
         steps += r.steps;
+        rejected += r.refined.iter().filter(|f| f.rejected).count();
         for (f, x) in r.cloth.iter().enumerate().skip(1) {
             vols.push(meter.volume(x)?);
             let body = g.scene.body_at(motion, f)?;
@@ -213,6 +245,7 @@ pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
         body_penetration_pct: body_pct.iter().sum::<f64>() / n,
         departure_cm: departure.iter().sum::<f64>() / n * 100.0,
         fps: if secs > 0.0 { steps as f64 / secs } else { f64::NAN },
+        rejected_pct: 100.0 * rejected as f64 / steps.max(1) as f64,
     };
     let curve = error_vs_runtime(method, &cfg, &g, &model, &rollouts, &mut meter)?;
     Ok((row, curve))
@@ -239,7 +272,11 @@ fn error_vs_runtime(
     let k = cfg.eval.curve_states.max(1).min(r.steps - 2);
     let states: Vec<usize> = (0..k).map(|i| 2 + i * (r.steps - 2) / k).collect();
     let budgets = &cfg.eval.solver_budgets;
-    let mut acc = vec![(0.0, 0.0, 0.0); budgets.len() + 1];
+    // The network's points: alone (or refined as the method's rollout was), then refined
+    // by each of `[eval] refine_budgets` more.
+    let mut refine = vec![method.refine];
+    refine.extend(cfg.eval.refine_budgets.iter().filter(|&&k| k > method.refine));
+    let mut acc = vec![(0.0, 0.0, 0.0); budgets.len() + refine.len()];
     let accel = Vec3::from(g.scene.config.external_force.gravity) + Vec3::from(ext);
     let mat = model_material(&material);
     let stepper = model.stepper();
@@ -271,33 +308,44 @@ fn error_vs_runtime(
         };
         let mut x = stepper.step(&frame)?;
         g.pin_from(&mut x, &r.cloth[s + 1]);
-        let ms = t0.elapsed().as_secs_f64() * 1e3;
-        let e = fe.evaluate(&x, None)?.total;
-        let last = budgets.len();
-        acc[last].0 += ms;
-        acc[last].1 += e - e_star;
-        acc[last].2 += meter.volume(&x)? * 1e6;
+        let net_ms = t0.elapsed().as_secs_f64() * 1e3;
+        // Refined as in `network_rollout`: from the better of the network's answer and the
+        // inertial target (the comparison is timed with the refinement).
+        let t1 = Instant::now();
+        let e_net = fe.evaluate(&x, None)?.total;
+        let start = if e_net <= fe.evaluate(&x0, None)?.total { &x } else { &x0 };
+        let pick_ms = t1.elapsed().as_secs_f64() * 1e3;
+        for (j, &k) in refine.iter().enumerate() {
+            let (x, ms) = if k == 0 {
+                (x.clone(), net_ms)
+            } else {
+                let (x, rep) = solve(&fe, start, &SolverOptions { max_iterations: k, ..Default::default() })?;
+                (x, net_ms + pick_ms + rep.seconds * 1e3)
+            };
+            let a = &mut acc[budgets.len() + j];
+            a.0 += ms;
+            a.1 += fe.evaluate(&x, None)?.total - e_star;
+            a.2 += meter.volume(&x)? * 1e6;
+        }
     }
     let n = states.len() as f64;
-    let mut out: Vec<CurvePoint> = budgets
-        .iter()
-        .enumerate()
-        .map(|(i, b)| CurvePoint {
-            method: format!("solver {b} it"),
+    let base = method.label.strip_suffix(&format!(" + {} it", method.refine)).unwrap_or(&method.label);
+    let names =
+        budgets.iter().map(|b| (format!("solver {b} it"), "solver".to_string())).chain(refine.iter().map(|&k| {
+            let name = if k == 0 { base.to_string() } else { format!("{base} + {k} it") };
+            (name, base.to_string())
+        }));
+    let out = names
+        .zip(&acc)
+        .map(|((method, series), a)| CurvePoint {
+            method,
             garment: g.name().to_string(),
-            ms_per_frame: acc[i].0 / n,
-            energy_gap: acc[i].1 / n,
-            volume_cm3: acc[i].2 / n,
+            ms_per_frame: a.0 / n,
+            energy_gap: a.1 / n,
+            series,
+            volume_cm3: a.2 / n,
         })
         .collect();
-    let last = budgets.len();
-    out.push(CurvePoint {
-        method: method.label.clone(),
-        garment: g.name().to_string(),
-        ms_per_frame: acc[last].0 / n,
-        energy_gap: acc[last].1 / n,
-        volume_cm3: acc[last].2 / n,
-    });
     Ok(out)
 }
 
@@ -315,7 +363,8 @@ pub fn write_reports(out: &Path, rows: &[Row], curve: &[CurvePoint], command: &s
          |---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     );
     let mut csv = String::from(
-        "method,garment,frames,volume_cm3,l_selfcol,pct_above_0_1,pct_above_0_01,body_penetration_pct,departure_cm,fps\n",
+        "method,garment,frames,volume_cm3,l_selfcol,pct_above_0_1,pct_above_0_01,body_penetration_pct,departure_cm,fps,\
+         rejected_pct\n",
     );
     for r in rows {
         md += &format!(
@@ -332,7 +381,7 @@ pub fn write_reports(out: &Path, rows: &[Row], curve: &[CurvePoint], command: &s
             r.fps
         );
         csv += &format!(
-            "{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{}\n",
             r.method,
             r.garment,
             r.frames,
@@ -342,7 +391,8 @@ pub fn write_reports(out: &Path, rows: &[Row], curve: &[CurvePoint], command: &s
             r.pct_above_0_01,
             r.body_penetration_pct,
             r.departure_cm,
-            r.fps
+            r.fps,
+            r.rejected_pct
         );
     }
     w("table1.md", md)?;
@@ -350,16 +400,18 @@ pub fn write_reports(out: &Path, rows: &[Row], curve: &[CurvePoint], command: &s
     w("table1.json", serde_json::to_string_pretty(rows).map_err(|e| TrainError::io(out.join("table1.json"), e))?)?;
     let mut md = format!(
         "# Error against run time\n\nProduced by `{command}`. Energy gap = E(answer) − E(reference solver, converged), J, \
-         averaged over test states of the network's rollout.\n\n\
+         averaged over test states of the network's rollout. \
+         \"network + N it\": N Newton iterations of the same solver started from the network's answer.\n\n\
          | method | garment | ms/frame | energy gap (J) | V (cm³) |\n|---|---|---:|---:|---:|\n"
     );
-    let mut csv = String::from("method,garment,ms_per_frame,energy_gap,volume_cm3\n");
+    let mut csv = String::from("method,series,garment,ms_per_frame,energy_gap,volume_cm3\n");
     for p in curve {
         md += &format!(
             "| {} | {} | {:.2} | {:.4e} | {:.3} |\n",
             p.method, p.garment, p.ms_per_frame, p.energy_gap, p.volume_cm3
         );
-        csv += &format!("{},{},{},{},{}\n", p.method, p.garment, p.ms_per_frame, p.energy_gap, p.volume_cm3);
+        csv +=
+            &format!("{},{},{},{},{},{}\n", p.method, p.series, p.garment, p.ms_per_frame, p.energy_gap, p.volume_cm3);
     }
     md += "\n![error against run time](runtime.svg)\n";
     w("runtime.md", md)?;
@@ -393,25 +445,38 @@ pub fn svg_plot(curve: &[CurvePoint]) -> String {
     for e in y0 as i32..=y1 as i32 {
         s += &format!("<text x=\"{}\" y=\"{}\" text-anchor=\"end\">1e{e}</text>\n", m - 5.0, sy(e as f64) + 4.0);
     }
-    let solver: Vec<usize> = (0..curve.len()).filter(|&i| curve[i].method.starts_with("solver ")).collect();
-    let mut garments: Vec<&str> = solver.iter().map(|&i| curve[i].garment.as_str()).collect();
-    garments.dedup();
-    for gname in garments {
-        let line: Vec<String> = solver
-            .iter()
-            .filter(|&&i| curve[i].garment == gname)
-            .map(|&i| format!("{:.1},{:.1}", sx(pts[i].0), sy(pts[i].1)))
+    // One line per (series, garment): the solver's budgets, and each network with its
+    // refined points.
+    let mut series: Vec<(&str, &str)> = Vec::new();
+    for p in curve {
+        if !series.contains(&(p.series.as_str(), p.garment.as_str())) {
+            series.push((p.series.as_str(), p.garment.as_str()));
+        }
+    }
+    for (name, gname) in &series {
+        let line: Vec<String> = (0..curve.len())
+            .filter(|&i| curve[i].series == *name && curve[i].garment == *gname)
+            .map(|i| format!("{:.1},{:.1}", sx(pts[i].0), sy(pts[i].1)))
             .collect();
-        s += &format!(
-            "<polyline points=\"{}\" fill=\"none\" stroke=\"steelblue\" stroke-width=\"2\"/>\n",
-            line.join(" ")
-        );
+        if line.len() > 1 {
+            let color = if *name == "solver" { "steelblue" } else { "crimson" };
+            s += &format!(
+                "<polyline points=\"{}\" fill=\"none\" stroke=\"{color}\" stroke-width=\"{}\"/>\n",
+                line.join(" "),
+                if *name == "solver" { 2 } else { 1 }
+            );
+        }
     }
     for (i, p) in curve.iter().enumerate() {
-        let net = !p.method.starts_with("solver ");
+        let net = p.series != "solver";
         let color = if net { "crimson" } else { "steelblue" };
         s += &format!("<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"4\" fill=\"{color}\"/>\n", sx(pts[i].0), sy(pts[i].1));
-        let label = if net { format!("{} ({})", p.method, p.garment) } else { p.method.clone() };
+        // A network's refined points are labelled by their iterations only.
+        let label = match p.method.strip_prefix(p.series.as_str()) {
+            Some(rest) if net && !rest.is_empty() => rest.trim_start().to_string(),
+            _ if net => format!("{} ({})", p.method, p.garment),
+            _ => p.method.clone(),
+        };
         s += &format!(
             "<text x=\"{:.1}\" y=\"{:.1}\" fill=\"{color}\">{}</text>\n",
             sx(pts[i].0) + 6.0,

@@ -24,6 +24,9 @@ pub struct Rollout {
     pub infer_seconds: f64,
     /// Frames predicted.
     pub steps: usize,
+    /// Per frame, what the Newton refinement of a network's answer did (empty without
+    /// refinement; see [`network_rollout`]).
+    pub refined: Vec<RefinedFrame>,
 }
 
 /// One step's view in [`roll`]: `x[t−1]`, `x[t]`, body at t and t+1, the skinned garment at
@@ -82,7 +85,7 @@ fn roll(
         cloth.push(curr.clone());
         body.push(b_next);
     }
-    Ok(Rollout { cloth, body, infer_seconds: secs, steps: n })
+    Ok(Rollout { cloth, body, infer_seconds: secs, steps: n, refined: Vec::new() })
 }
 
 /// Simulates `frames` frames of `motion` (fewer if the motion is shorter) with `model`
@@ -95,22 +98,99 @@ pub fn rollout(
     external: Vec3,
     material: &Material,
 ) -> Result<Rollout, TrainError> {
-    let model = model.stepper();
+    network_rollout(model, g, motion, frames, external, material, None)
+}
+
+/// Newton refinement of a network's answer: at most `iterations` iterations of the reference
+/// solver on `energy` (the run's phase-2 energy), started from the network's prediction.
+#[derive(Debug, Clone)]
+pub struct Refine<'a> {
+    /// The energy minimised (its `dt` and gravity are taken from the garment's scene).
+    pub energy: &'a senc_energy::EnergyConfig,
+    /// Newton iterations per frame (0 = the network alone).
+    pub iterations: usize,
+}
+
+/// What the refinement did to one frame of [`network_rollout`] (energies of the refined
+/// energy, J).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RefinedFrame {
+    /// `E` of the network's answer.
+    pub network: f64,
+    /// `E` of the inertial target `2x[t] − x[t−1]` (the solver's own start).
+    pub inertial: f64,
+    /// `E` of the refined answer (at most the smaller of the two).
+    pub refined: f64,
+    /// The network's answer was worse than the inertial target, so the solver started from
+    /// the target instead.
+    pub rejected: bool,
+}
+
+/// [`rollout`] with each predicted frame refined by a few Newton iterations of the reference
+/// solver, started from the network's answer instead of the inertial target: a point
+/// between the network (fast, approximate) and the solver (slow, converged) on the
+/// error-against-run-time curve. Each frame is pulled towards the minimum of the energy the
+/// network was trained on, so the network's errors cannot compound freely. Where the
+/// network's answer has a higher energy than the inertial target (or a non-finite one), the
+/// solver starts from the target instead, so the refined frame's energy is never above
+/// either. The timed step includes the refinement; [`Rollout::refined`] records each frame.
+/// `refine: None` (or 0 iterations) is [`rollout`].
+pub fn network_rollout(
+    model: &Model,
+    g: &Garment,
+    motion: &Motion,
+    frames: usize,
+    external: Vec3,
+    material: &Material,
+    refine: Option<Refine<'_>>,
+) -> Result<Rollout, TrainError> {
+    let stepper = model.stepper();
     let accel = Vec3::from(g.scene.config.external_force.gravity) + external;
-    let material = model_material(material);
-    roll(g, motion, frames, |s| {
+    let model_mat = model_material(material);
+    let refine = refine.filter(|r| r.iterations > 0);
+    let energies = match &refine {
+        Some(r) => Some((
+            g.energy_model(r.energy.clone(), g.scene.dt())?,
+            g.energy_model(r.energy.clone(), g.scene.config.first_step_dt)?,
+        )),
+        None => None,
+    };
+    let opts = senc_energy::SolverOptions {
+        max_iterations: refine.as_ref().map_or(1, |r| r.iterations),
+        ..Default::default()
+    };
+    let mut record = Vec::new();
+    let mut r = roll(g, motion, frames, |s| {
         let frame = FrameState {
             rest: &g.rest,
             prev: s.prev,
             curr: s.curr,
-            material,
+            material: model_mat,
             accel,
             dt: if s.first { g.scene.config.first_step_dt } else { g.scene.dt() },
             body: Some(BodyState { faces: g.body_faces(), curr: s.body_t, next: s.body_next }),
             pinned: &g.pinned,
         };
-        Ok(model.step(&frame)?)
-    })
+        let mut next = stepper.step(&frame)?;
+        let Some((em, em_first)) = &energies else { return Ok(next) };
+        let fe = (if s.first { em_first } else { em }).frame(s.curr, s.prev, Some((s.body_t, s.body_next)))?;
+        let mut target: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| s.curr.to_vec());
+        if let Some(p) = s.pins {
+            g.pin_from(&mut next, p);
+            g.pin_from(&mut target, p);
+        }
+        let finite = next.iter().all(|p| p.iter().all(|c| c.is_finite()));
+        let network = if finite { fe.evaluate(&next, None)?.total } else { f64::NAN };
+        let inertial = fe.evaluate(&target, None)?.total;
+        // A NaN network energy is rejected too.
+        let rejected = network.is_nan() || network > inertial;
+        let start = if rejected { &target } else { &next };
+        let (x, rep) = senc_energy::solve(&fe, start, &opts)?;
+        record.push(RefinedFrame { network, inertial, refined: rep.energy, rejected });
+        Ok(x)
+    })?;
+    r.refined = record;
+    Ok(r)
 }
 
 /// Simulates `frames` frames of `motion` with the reference solver instead of a network:

@@ -90,8 +90,15 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     assert!(row.volume_cm3.is_finite() && row.volume_cm3 >= 0.0);
     assert!(row.fps > 0.0);
     assert!(row.departure_cm.is_finite() && row.departure_cm > 0.0, "{}", row.departure_cm);
-    assert_eq!(curve.len(), 4, "3 solver budgets + the network");
+    assert_eq!(curve.len(), 5, "3 solver budgets + the network + the network refined by 2 it");
     assert!(curve.iter().all(|p| p.energy_gap.is_finite()));
+    assert!(curve[..3].iter().all(|p| p.series == "solver"));
+    let (net, refined) = (&curve[3], &curve[4]);
+    assert_eq!((net.series.as_str(), refined.series.as_str()), (m.label.as_str(), m.label.as_str()));
+    assert_eq!(refined.method, format!("{} + 2 it", m.label));
+    // Newton with a line search from the better of the network's answer and the inertial
+    // target cannot end above the network's answer.
+    assert!(refined.energy_gap <= net.energy_gap + 1e-9, "{} > {}", refined.energy_gap, net.energy_gap);
     let out = d.join("reports");
     write_reports(&out, &[row], &curve, "test").unwrap();
     for f in ["table1.md", "table1.csv", "table1.json", "runtime.md", "runtime.csv", "runtime.svg"] {
@@ -242,6 +249,48 @@ fn pinned_waist_follows_the_body_and_holds_the_skirt() {
 /// `Garment::relax_start` on skinned t-shirt states whose cloth is inside the body (linear
 /// blend skinning artefacts): afterwards fewer vertices are inside the proxy body, the
 /// static energy of the frame is far lower, and every vertex keeps its velocity `x[t] − x[t−1]`.
+/// `network_rollout` with Newton refinement (`simulate --refine`, `eval --refine`), on the
+/// smoke scene with an untrained network: no refinement is the plain rollout bit for bit;
+/// with it, every frame is recorded, no refined frame has a higher phase-2 energy than the
+/// network's answer or the inertial target, the solver starts from the target exactly where
+/// the network's answer is worse, and the rollout stays finite.
+#[test]
+fn refined_rollout_never_raises_the_energy() {
+    use senc_train::garment::Garment;
+    use senc_train::rollout::{network_rollout, rollout, Refine};
+    use senc_train::trainer::scene_material;
+    let cfg = senc_train::RunConfig::read(root().join("configs/smoke.toml")).unwrap();
+    let g = Garment::load(&senc_train::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
+    let motion = &g.scene.test[0];
+    let material = scene_material(&g).unwrap();
+    let model = Model::new(cfg.model.model_config(), cfg.model.graph_config(), 7, &Device::flex());
+    let frames = 6;
+    let ext = senc_geom::Vec3::zeros();
+    let plain = rollout(&model, &g, motion, frames, ext, &material).unwrap();
+    let none = network_rollout(&model, &g, motion, frames, ext, &material, None).unwrap();
+    assert_eq!(plain.cloth, none.cloth);
+    assert!(none.refined.is_empty());
+    let energy = cfg.energy_for(2, material, [0.0; 3]);
+    assert!(energy.self_collision.weight > 0.0, "smoke.toml's phase 2 has self-collision");
+    let zero =
+        network_rollout(&model, &g, motion, frames, ext, &material, Some(Refine { energy: &energy, iterations: 0 }))
+            .unwrap();
+    assert_eq!(plain.cloth, zero.cloth);
+    let r =
+        network_rollout(&model, &g, motion, frames, ext, &material, Some(Refine { energy: &energy, iterations: 2 }))
+            .unwrap();
+    assert_eq!(r.refined.len(), frames);
+    assert!(r.cloth.iter().flatten().all(|p| p.iter().all(|c| c.is_finite())));
+    let mut moved = 0;
+    for (f, s) in r.refined.iter().enumerate() {
+        assert!(s.refined.is_finite() && s.inertial.is_finite(), "frame {f}: {s:?}");
+        assert!(s.refined <= s.inertial.min(s.network) + 1e-12 * s.inertial.abs().max(1.0), "frame {f}: {s:?}");
+        assert_eq!(s.rejected, s.network.is_nan() || s.network > s.inertial, "frame {f}: {s:?}");
+        moved += usize::from(r.cloth[f + 1] != plain.cloth[f + 1]);
+    }
+    assert!(moved > 0, "the refinement changed no frame");
+}
+
 #[test]
 fn relaxed_start_leaves_the_body_and_keeps_velocities() {
     use senc_train::garment::Garment;
