@@ -56,17 +56,34 @@ pub enum Target {
         /// Skip the forward + backward timing (inference only).
         #[arg(long)]
         no_backward: bool,
+        /// Device to time the network on: cpu (default), vulkan (build with `--features
+        /// gpu`) or cuda (`--features cuda`). Graph building always runs on the CPU.
+        #[arg(long, default_value = "cpu")]
+        device: String,
     },
 }
 
 /// Runs one benchmark target.
 pub fn run(target: Target) -> Result<()> {
     match target {
-        Target::Model { config, frame, reps, quick, export, torch, sizes, no_backward } => {
+        Target::Model { config, frame, reps, quick, export, torch, sizes, no_backward, device } => {
             if torch && (sizes.len() != 3 || no_backward) {
                 bail!("--torch compares all three sizes with backward; drop --sizes and --no-backward");
             }
-            model(&Opts { config, frame, reps, quick, export, torch, sizes, backward: !no_backward })
+            let device_name = device;
+            let device = senc_model::device_named(&device_name)?;
+            model(&Opts {
+                config,
+                frame,
+                reps,
+                quick,
+                export,
+                torch,
+                sizes,
+                backward: !no_backward,
+                device,
+                device_name,
+            })
         }
     }
 }
@@ -99,6 +116,8 @@ struct Opts {
     torch: bool,
     sizes: Vec<String>,
     backward: bool,
+    device: senc_model::burn::tensor::Device,
+    device_name: String,
 }
 
 fn model(o: &Opts) -> Result<()> {
@@ -166,7 +185,8 @@ fn model(o: &Opts) -> Result<()> {
 
     let own = cfg.model.model_config();
     println!(
-        "\n## network, burn flex (median of {reps}; full HOOD {} rep(s)); load {}",
+        "\n## network, burn on {} (median of {reps}; full HOOD {} rep(s)); load {}",
+        o.device_name,
         if quick { 1 } else { reps },
         load()
     );
@@ -176,7 +196,7 @@ fn model(o: &Opts) -> Result<()> {
             continue;
         }
         let r = if quick && k == 2 { 1 } else { reps };
-        let t = bench_network(&label, &c, &graph, r, o.backward);
+        let t = bench_network(&label, &c, &graph, r, o.backward, &o.device);
         println!(
             "{:34} params {:7} | upload {:6.1} ms | forward {:8.1} ms | fused {:8.1} ms | forward+backward {:8.1} ms | fps incl. graph: burn {:.1}, fused {:.1}",
             t.label,

@@ -95,10 +95,22 @@ pub struct NetTiming {
     pub forward_backward: f64,
 }
 
-/// Times `config` on `graph`: inference on a plain flex device, inference on the fused host
-/// path and, with `backward`, forward + backward on an autodiff one (NaN otherwise).
-pub fn bench_network(label: &str, config: &ModelConfig, graph: &GraphInputs, reps: usize, backward: bool) -> NetTiming {
-    let device = Device::flex();
+/// Times `config` on `graph` on `device` (`Device::flex()` or a GPU device from
+/// [`crate::device_named`]): inference on the plain device, inference on the fused host path
+/// (CPU only; NaN on another device) and, with `backward`, forward + backward on the
+/// device's autodiff version (NaN otherwise). Each timed run ends with the device synchronised
+/// (results read back, or `Device::sync` after the backward pass), so asynchronous GPU
+/// work is counted.
+pub fn bench_network(
+    label: &str,
+    config: &ModelConfig,
+    graph: &GraphInputs,
+    reps: usize,
+    backward: bool,
+    device: &Device,
+) -> NetTiming {
+    let device = device.clone().inner();
+    let cpu = device == Device::flex();
     let mut model = Model::new(config.clone(), GraphConfig::default(), 1, &device.clone().autodiff());
     model.normalizers.update_inputs(graph);
     let valid = model.valid();
@@ -106,15 +118,20 @@ pub fn bench_network(label: &str, config: &ModelConfig, graph: &GraphInputs, rep
     let tensors = valid.tensors(graph);
     let upload = time_median(reps, || {
         let _ = valid.tensors(graph);
+        let _ = device.sync();
     });
     let forward = time_median(reps, || {
         let out = valid.forward_tensors(&tensors);
         let _ = tensor_to_f64(out);
     });
-    let engine = crate::FusedNetwork::new(&valid);
-    let fused = time_median(reps, || {
-        let _ = engine.accelerations(graph);
-    });
+    let fused = if cpu {
+        let engine = crate::FusedNetwork::new(&valid);
+        time_median(reps, || {
+            let _ = engine.accelerations(graph);
+        })
+    } else {
+        f64::NAN
+    };
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let g: Vec<Vec3> = (0..graph.n_cloth).map(|_| Vec3::new(rng.random(), rng.random(), rng.random())).collect();
     let ad_tensors = model.tensors(graph);
@@ -122,6 +139,7 @@ pub fn bench_network(label: &str, config: &ModelConfig, graph: &GraphInputs, rep
         time_median(reps, || {
             let x = model.forward_tensors(&ad_tensors);
             let _grads = surrogate_backward(x, &g).expect("shapes match");
+            let _ = device.sync();
         })
     } else {
         f64::NAN

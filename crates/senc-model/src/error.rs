@@ -74,4 +74,12 @@ pub enum ModelError {
         /// What failed.
         message: String,
     },
+    /// A device name that is unknown or whose backend this build leaves out.
+    #[error("device {name:?}: {message}")]
+    Device {
+        /// The name given.
+        name: String,
+        /// Why it cannot be used and how to fix it.
+        message: String,
+    },
 }

@@ -41,6 +41,7 @@
 pub mod bench;
 pub mod checkpoint;
 pub mod convert;
+pub mod device;
 pub mod error;
 pub mod fused;
 pub mod graph;
@@ -52,6 +53,7 @@ pub mod surrogate;
 pub mod synthetic;
 
 pub use convert::{tensor_to_vec3, vec3_tensor, GraphTensors, HostGraph};
+pub use device::device_named;
 pub use error::ModelError;
 pub use fused::FusedNetwork;
 pub use graph::{BodyState, EdgeSet, EdgeType, FrameState, GraphConfig, GraphInputs, Material, SelfEdges};
