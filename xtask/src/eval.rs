@@ -79,10 +79,14 @@ pub fn run(
     let mut rows = Vec::new();
     let mut curve = Vec::new();
     let refine = if refine.is_empty() { &[0][..] } else { refine };
+    let mut curve_done = std::collections::HashSet::new();
     let checkpoints = std::iter::once(checkpoint).chain(compare.iter().map(|p| p.as_path()));
     for (ck, &iterations) in checkpoints.flat_map(|c| refine.iter().map(move |r| (c, r))) {
         let config = pick_config(ck, configs)?;
         let mut m = Method::new(ck, config.as_deref())?.with_refine(iterations);
+        // A checkpoint's curve once: from its first row (with `--refine 0,2`, the network
+        // alone, whose points include the refined answers on the same states).
+        m.curve = curve_done.insert(ck.to_path_buf());
         if let Some(g) = garment {
             let asset = prepare_garment(g, &m.config)?;
             m = m.with_garment(&asset);

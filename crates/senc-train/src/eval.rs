@@ -45,6 +45,9 @@ pub struct Method {
     pub garment: Option<PathBuf>,
     /// Newton iterations (phase-2 energy) refining each network frame; 0 = the network alone.
     pub refine: usize,
+    /// Compute the error-against-run-time points (default true; `xtask eval` turns it off
+    /// for a checkpoint's second and later rows, whose curve would repeat the first's).
+    pub curve: bool,
 }
 
 impl Method {
@@ -72,7 +75,7 @@ impl Method {
             Some(r) => format!("{r}/{phase}"),
             None => phase,
         };
-        Ok(Self { label, checkpoint: checkpoint.to_path_buf(), config, garment: None, refine: 0 })
+        Ok(Self { label, checkpoint: checkpoint.to_path_buf(), config, garment: None, refine: 0, curve: true })
     }
 
     /// The reference solver on the config `config`'s scene (no checkpoint; used by
@@ -84,6 +87,7 @@ impl Method {
             config: config.to_path_buf(),
             garment: None,
             refine: 0,
+            curve: true,
         }
     }
 
@@ -247,7 +251,8 @@ pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
         fps: if secs > 0.0 { steps as f64 / secs } else { f64::NAN },
         rejected_pct: 100.0 * rejected as f64 / steps.max(1) as f64,
     };
-    let curve = error_vs_runtime(method, &cfg, &g, &model, &rollouts, &mut meter)?;
+    let curve =
+        if method.curve { error_vs_runtime(method, &cfg, &g, &model, &rollouts, &mut meter)? } else { Vec::new() };
     Ok((row, curve))
 }
 
