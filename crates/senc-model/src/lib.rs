@@ -14,7 +14,8 @@
 //!    [`surrogate_backward`] backpropagates `Σ x ⊙ g`.
 //!
 //! Backends: the CPU `flex` backend (`Device::flex()`, `.autodiff()` for training) is always
-//! built; the Cargo feature `gpu` adds wgpu/Vulkan.
+//! built; the Cargo feature `gpu` adds wgpu/Vulkan and `cuda` CUDA ([`device_named`] picks one
+//! by name).
 //!
 //! # Example
 //! ```
