@@ -56,8 +56,8 @@ pub enum Target {
         /// Skip the forward + backward timing (inference only).
         #[arg(long)]
         no_backward: bool,
-        /// Device to time the network on: cpu (default), vulkan (build with `--features
-        /// gpu`) or cuda (`--features cuda`). Graph building always runs on the CPU.
+        /// Device to time the network on: cpu (default) or vulkan (build with `--features
+        /// gpu`). Graph building always runs on the CPU.
         #[arg(long, default_value = "cpu")]
         device: String,
     },

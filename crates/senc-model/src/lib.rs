@@ -14,8 +14,7 @@
 //!    [`surrogate_backward`] backpropagates `Σ x ⊙ g`.
 //!
 //! Backends: the CPU `flex` backend (`Device::flex()`, `.autodiff()` for training) is always
-//! built; the Cargo feature `gpu` adds wgpu/Vulkan and `cuda` CUDA ([`device_named`] picks one
-//! by name).
+//! built; the Cargo feature `gpu` adds wgpu/Vulkan ([`device_named`] picks a device by name).
 //!
 //! # Example
 //! ```
