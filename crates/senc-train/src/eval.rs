@@ -28,7 +28,7 @@ use serde::Serialize;
 use crate::config::RunConfig;
 use crate::error::TrainError;
 use crate::garment::Garment;
-use crate::rollout::{network_rollout, Refine, Rollout};
+use crate::rollout::{network_rollout, refine_start, Refine, Rollout};
 use crate::trainer::{model_material, scene_material, CONFIG_FILE};
 
 /// A checkpoint to evaluate, with the row label and the config whose scene it runs on.
@@ -317,20 +317,20 @@ fn error_vs_runtime(
         // Refined as in `network_rollout`: from the better of the network's answer and the
         // inertial target (the comparison is timed with the refinement).
         let t1 = Instant::now();
-        let e_net = fe.evaluate(&x, None)?.total;
-        let start = if e_net <= fe.evaluate(&x0, None)?.total { &x } else { &x0 };
+        let (e_net, _, rejected) = refine_start(&fe, &x, &x0)?;
         let pick_ms = t1.elapsed().as_secs_f64() * 1e3;
         for (j, &k) in refine.iter().enumerate() {
-            let (x, ms) = if k == 0 {
-                (x.clone(), net_ms)
+            let (answer, e, ms) = if k == 0 {
+                (x.clone(), e_net, net_ms)
             } else {
-                let (x, rep) = solve(&fe, start, &SolverOptions { max_iterations: k, ..Default::default() })?;
-                (x, net_ms + pick_ms + rep.seconds * 1e3)
+                let start = if rejected { &x0 } else { &x };
+                let (answer, rep) = solve(&fe, start, &SolverOptions { max_iterations: k, ..Default::default() })?;
+                (answer, rep.energy, net_ms + pick_ms + rep.seconds * 1e3)
             };
             let a = &mut acc[budgets.len() + j];
             a.0 += ms;
-            a.1 += fe.evaluate(&x, None)?.total - e_star;
-            a.2 += meter.volume(&x)? * 1e6;
+            a.1 += e - e_star;
+            a.2 += meter.volume(&answer)? * 1e6;
         }
     }
     let n = states.len() as f64;

@@ -126,6 +126,20 @@ pub struct RefinedFrame {
     pub rejected: bool,
 }
 
+/// Where the refinement of a network's answer starts: `(E(network), E(target), rejected)`,
+/// rejected (start from the inertial `target`) when the network's answer has the higher
+/// energy or is not finite.
+pub(crate) fn refine_start(
+    fe: &senc_energy::FrameEnergy<'_>,
+    network: &[Vec3],
+    target: &[Vec3],
+) -> Result<(f64, f64, bool), TrainError> {
+    let finite = network.iter().all(|p| p.iter().all(|c| c.is_finite()));
+    let e_net = if finite { fe.evaluate(network, None)?.total } else { f64::NAN };
+    let e_target = fe.evaluate(target, None)?.total;
+    Ok((e_net, e_target, e_net.is_nan() || e_net > e_target))
+}
+
 /// [`rollout`] with each predicted frame refined by a few Newton iterations of the reference
 /// solver, started from the network's answer instead of the inertial target: a point
 /// between the network (fast, approximate) and the solver (slow, converged) on the
@@ -179,13 +193,8 @@ pub fn network_rollout(
             g.pin_from(&mut next, p);
             g.pin_from(&mut target, p);
         }
-        let finite = next.iter().all(|p| p.iter().all(|c| c.is_finite()));
-        let network = if finite { fe.evaluate(&next, None)?.total } else { f64::NAN };
-        let inertial = fe.evaluate(&target, None)?.total;
-        // A NaN network energy is rejected too.
-        let rejected = network.is_nan() || network > inertial;
-        let start = if rejected { &target } else { &next };
-        let (x, rep) = senc_energy::solve(&fe, start, &opts)?;
+        let (network, inertial, rejected) = refine_start(&fe, &next, &target)?;
+        let (x, rep) = senc_energy::solve(&fe, if rejected { &target } else { &next }, &opts)?;
         record.push(RefinedFrame { network, inertial, refined: rep.energy, rejected });
         Ok(x)
     })?;
