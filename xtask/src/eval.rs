@@ -80,6 +80,7 @@ pub fn run(
     let mut curve = Vec::new();
     let refine = if refine.is_empty() { &[0][..] } else { refine };
     let mut curve_done = std::collections::HashSet::new();
+    let mut fitted: std::collections::HashMap<PathBuf, PathBuf> = std::collections::HashMap::new();
     let checkpoints = std::iter::once(checkpoint).chain(compare.iter().map(|p| p.as_path()));
     for (ck, &iterations) in checkpoints.flat_map(|c| refine.iter().map(move |r| (c, r))) {
         let config = pick_config(ck, configs)?;
@@ -88,8 +89,12 @@ pub fn run(
         // alone, whose points include the refined answers on the same states).
         m.curve = curve_done.insert(ck.to_path_buf());
         if let Some(g) = garment {
-            let asset = prepare_garment(g, &m.config)?;
-            m = m.with_garment(&asset);
+            // Fitted once per config, not once per `--refine` row.
+            let asset = match fitted.get(&m.config) {
+                Some(a) => a,
+                None => fitted.entry(m.config.clone()).or_insert(prepare_garment(g, &m.config)?),
+            };
+            m = m.with_garment(asset);
         }
         eprintln!("evaluating {} on {}", m.label, m.config.display());
         let (row, c) = evaluate(&m).with_context(|| format!("evaluating {}", ck.display()))?;
