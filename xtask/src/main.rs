@@ -24,6 +24,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{CommandFactory, Parser, Subcommand};
 
+mod against_solver;
 mod alloc;
 mod bench;
 mod check_mesh;
@@ -237,6 +238,9 @@ enum Command {
         #[arg(long, default_value_t = 50)]
         converged: usize,
     },
+    /// A network rolled out alone against the reference solver on the same motion (the
+    /// resting-case check on a held pose).
+    AgainstSolver(against_solver::Args),
     /// Draw the body and the garment at a frame of a scene motion (PNG).
     Preview {
         /// Scene config (TOML with a [scene] table).
@@ -318,6 +322,7 @@ fn main() -> std::process::ExitCode {
         Some(Command::Probe { config, checkpoint, states, budgets, converged }) => {
             eval::probe(&config, checkpoint.as_deref(), states, &budgets, converged)
         }
+        Some(Command::AgainstSolver(args)) => against_solver::run(&args),
         Some(Command::Preview { config, frame, motion, out, size }) => {
             preview::run(&config, frame, motion.as_deref(), &out, size)
         }

@@ -97,6 +97,34 @@ pub struct TrainConfig {
     /// and let a garment that has drifted keep drifting. A start moving against the body
     /// shows it otherwise.
     pub velocity_noise_std: f64,
+    /// Probability that a mid-motion training sequence (not in warm-up) starts from a state
+    /// the network itself reached in an earlier rollout (the visited-state pool) instead of
+    /// a skinned one. Skinned starts show only cloth that hangs on the body; rolled out
+    /// alone, the network reaches states it never trained on (lifted, swinging, crumpled)
+    /// and its errors compound there. Default 0: off.
+    pub pool_share: f64,
+    /// States the pool keeps (the oldest is replaced first). Default 64.
+    pub pool_size: usize,
+    /// Every this many training iterations the current network is rolled out alone from a
+    /// fresh skinned start for `pool_frames` frames, and every `pool_stride`-th state it
+    /// reaches enters the pool. Default 50.
+    pub pool_every: u64,
+    /// Frames of each pool rollout. Default 60.
+    pub pool_frames: usize,
+    /// Every this many frames of a pool rollout, the state enters the pool. Default 5.
+    pub pool_stride: usize,
+    /// `β`, the weight of the Newton step in the inertia's metric added to the energy
+    /// gradient in the training signal, `g + β (M / Δt²) H⁻¹ g` (see `signal`): errors of
+    /// the soft global modes (a drift) weigh `1 + β` times more next to the stiff ones.
+    /// Default 0: the plain gradient, no Hessian.
+    pub newton_weight: f64,
+    /// Floor on the node normaliser's standard deviation of the velocity columns, m per
+    /// frame. Default 0: the statistics' own.
+    pub velocity_std_floor: f64,
+    /// PCG iterations of the Newton signal. Default 20.
+    pub signal_cg_iterations: usize,
+    /// Relative residual at which the Newton signal's PCG stops. Default 1e-4.
+    pub signal_cg_tolerance: f64,
 }
 
 impl Default for TrainConfig {
@@ -125,6 +153,15 @@ impl Default for TrainConfig {
             collision_ramp_iterations: 1000,
             translation_weight: 1.0,
             velocity_noise_std: 0.0,
+            pool_share: 0.0,
+            pool_size: 64,
+            pool_every: 50,
+            pool_frames: 60,
+            pool_stride: 5,
+            newton_weight: 0.0,
+            velocity_std_floor: 0.0,
+            signal_cg_iterations: 20,
+            signal_cg_tolerance: 1e-4,
         }
     }
 }
@@ -372,6 +409,17 @@ impl RunConfig {
         }
         if t.checkpoint_every == 0 {
             return bad("[train] checkpoint_every must be >= 1".into());
+        }
+        if !(t.newton_weight.is_finite() && t.newton_weight >= 0.0) {
+            return bad(format!("[train] newton_weight = {} must be finite and >= 0", t.newton_weight));
+        }
+        if !(0.0..=1.0).contains(&t.pool_share) {
+            return bad(format!("[train] pool_share = {} must be in [0, 1] (0: off)", t.pool_share));
+        }
+        if t.pool_share > 0.0 && (t.pool_size == 0 || t.pool_every == 0 || t.pool_frames == 0 || t.pool_stride == 0) {
+            return bad(
+                "[train] pool_size, pool_every, pool_frames and pool_stride must be >= 1 when pool_share > 0".into()
+            );
         }
         if let Some(w) = self.train.collision_weight_start {
             if !(w.is_finite() && w >= 0.0) {

@@ -5,6 +5,7 @@
 //! - [`trainer`]: HOOD's schedule and SENC's two phases, checkpoints and exact resume.
 //! - [`clip`]: global gradient-norm clipping.
 //! - [`rollout`]: running a trained model on a motion (evaluation, simulation).
+//! - [`resting`]: a network's rollout against the reference solver's (the resting case).
 //! - [`eval`]: Table-1 metrics and the error-against-run-time comparison.
 
 pub mod clip;
@@ -12,7 +13,9 @@ pub mod config;
 pub mod error;
 pub mod eval;
 pub mod garment;
+pub mod resting;
 pub mod rollout;
+pub mod signal;
 pub mod trainer;
 
 pub use config::{EvalConfig, ModelSection, RunConfig, SelfEdgeMode, TrainConfig};

@@ -96,6 +96,32 @@ pub struct Progress {
     pub sequence: Option<Sequence>,
     /// Whether both phases are done.
     pub finished: bool,
+    /// States the network reached in its own rollouts (`[train] pool_share`).
+    #[serde(default)]
+    pub pool: Vec<PooledState>,
+    /// Where the next pooled state goes once the pool is full.
+    #[serde(default)]
+    pub pool_next: usize,
+}
+
+/// A state the network reached when rolled out alone (see `[train] pool_share`): a
+/// training sequence may start from it instead of from a skinned garment.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PooledState {
+    /// Index into the run's garments.
+    pub garment: usize,
+    /// Index into that garment's training motions.
+    pub motion: usize,
+    /// Frame of `curr` in the motion.
+    pub frame: usize,
+    /// Material of the rollout that reached it.
+    pub material: Material,
+    /// External acceleration of that rollout, m/s².
+    pub external: [f64; 3],
+    /// Cloth at t−1, m.
+    pub prev: Vec<Vec3>,
+    /// Cloth at t, m.
+    pub curr: Vec<Vec3>,
 }
 
 /// What one iteration did.
@@ -207,6 +233,18 @@ pub(crate) fn add_velocity(prev: &mut [Vec3], pinned: &[usize], dv: Vec3, dt: f6
             *p -= dv * dt;
         }
     }
+}
+
+/// Moves a sequence one frame on to `next`. After the long first step the velocity is
+/// kept, not the displacement: the next steps are 1/fps long.
+fn advance(s: &mut Sequence, next: Vec<Vec3>, g: &Garment) {
+    s.prev = std::mem::replace(&mut s.curr, next);
+    if s.first_step {
+        let k = g.scene.dt() / g.scene.config.first_step_dt;
+        crate::garment::rescale_velocity(&mut s.prev, &s.curr, k);
+    }
+    s.frame += 1;
+    s.first_step = false;
 }
 
 fn finite(v: &[Vec3]) -> bool {
@@ -375,8 +413,34 @@ impl Trainer {
         self.progress.finished
     }
 
-    fn start_sequence(&mut self, len: usize) -> Result<Sequence, TrainError> {
+    /// A new training sequence of `len` steps: from the visited-state pool with
+    /// probability `[train] pool_share` when `pooled` allows it (never in warm-up), else
+    /// from a skinned garment.
+    fn start_sequence(&mut self, len: usize, pooled: bool) -> Result<Sequence, TrainError> {
         let t = self.config.train.clone();
+        let warm = self.progress.warmup_done < t.warmup_iterations;
+        if pooled
+            && !warm
+            && t.pool_share > 0.0
+            && !self.progress.pool.is_empty()
+            && self.rng.random::<f64>() < t.pool_share
+        {
+            let p = &self.progress.pool[self.rng.random_range(0..self.progress.pool.len())];
+            if p.frame + len + 1 < self.garments[p.garment].scene.train[p.motion].n_frames() {
+                self.sequence_id += 1;
+                return Ok(Sequence {
+                    garment: p.garment,
+                    motion: p.motion,
+                    frame: p.frame,
+                    steps_left: len,
+                    material: p.material,
+                    external: p.external,
+                    prev: p.prev.clone(),
+                    curr: p.curr.clone(),
+                    first_step: false,
+                });
+            }
+        }
         let gi = self.rng.random_range(0..self.garments.len());
         let g = &self.garments[gi];
         let usable: Vec<usize> = (0..g.scene.train.len()).filter(|&i| g.scene.train[i].n_frames() >= len + 3).collect();
@@ -455,7 +519,6 @@ impl Trainer {
             }
         }
         // Not in warm-up: the output normaliser learns the skinned garment's response.
-        let warm = self.progress.warmup_done < t.warmup_iterations;
         if t.velocity_noise_std > 0.0 && !first && !warm {
             let normal = Normal::new(0.0, t.velocity_noise_std).map_err(|e| TrainError::Invalid(e.to_string()))?;
             let dv =
@@ -481,7 +544,7 @@ impl Trainer {
     }
 
     fn warmup_step(&mut self) -> Result<StepReport, TrainError> {
-        let seq = self.start_sequence(1)?;
+        let seq = self.start_sequence(1, false)?;
         let g = &self.garments[seq.garment];
         let motion = &g.scene.train[seq.motion];
         let body_t = g.body_at(motion, seq.frame)?;
@@ -525,8 +588,12 @@ impl Trainer {
         let phase = self.progress.phase;
         let k = self.progress.iteration;
         let len = self.config.train.rollout_len(k);
+        let t = &self.config.train;
+        if t.pool_share > 0.0 && k % t.pool_every == 0 {
+            self.fill_pool()?;
+        }
         if self.progress.sequence.as_ref().is_none_or(|s| s.steps_left == 0) {
-            let s = self.start_sequence(len)?;
+            let s = self.start_sequence(len, true)?;
             self.progress.sequence = Some(s);
             self.energy_cache = None;
         }
@@ -578,6 +645,21 @@ impl Trainer {
             }
             report.loss = b.total;
             report.terms = b.terms.clone();
+            if self.config.train.newton_weight > 0.0 {
+                if let Some(fe) = &fe {
+                    let t = &self.config.train;
+                    crate::signal::newton_signal(
+                        fe,
+                        &next,
+                        em.masses(),
+                        dt,
+                        t.newton_weight,
+                        &mut grad,
+                        t.signal_cg_iterations,
+                        t.signal_cg_tolerance,
+                    );
+                }
+            }
             let grads = senc_model::surrogate_backward(accel_t, &grad)?;
             let mut gp = GradientsParams::from_grads(grads, &self.model.network);
             let norm = crate::clip::clip_global_norm(&self.model.network, &mut gp, self.config.train.grad_clip);
@@ -591,16 +673,8 @@ impl Trainer {
         let s = self.progress.sequence.as_mut().expect("running");
         if stepped {
             report.skipped = false;
-            s.prev = std::mem::take(&mut s.curr);
-            s.curr = next;
-            if s.first_step {
-                // The next steps are 1/fps long: keep the velocity, not the displacement.
-                let k = g.scene.dt() / g.scene.config.first_step_dt;
-                crate::garment::rescale_velocity(&mut s.prev, &s.curr, k);
-            }
-            s.frame += 1;
+            advance(s, next, &g);
             s.steps_left -= 1;
-            s.first_step = false;
         } else {
             self.progress.skipped[usize::from(phase - 1)] += 1;
             s.steps_left = 0;
@@ -609,6 +683,51 @@ impl Trainer {
         report.skipped_total = self.progress.skipped[usize::from(phase - 1)];
         self.progress.iteration += 1;
         Ok(report)
+    }
+
+    /// Rolls the current network out alone for `[train] pool_frames` frames from a fresh
+    /// skinned start (a random garment, motion, material and force, as a training sequence
+    /// draws them) and puts every `pool_stride`-th state it reaches into the pool, replacing
+    /// the oldest once the pool holds `pool_size`. A rollout that turns non-finite stops
+    /// there. Inference only (no optimiser step, no energy).
+    fn fill_pool(&mut self) -> Result<(), TrainError> {
+        let t = self.config.train.clone();
+        let mut s = self.start_sequence(t.pool_frames, false)?;
+        let g = self.garments[s.garment].clone();
+        let motion = &g.scene.train[s.motion];
+        let stepper = self.model.valid().stepper();
+        let accel = self.gravity(&g) + Vec3::from(s.external);
+        for step in 1..=t.pool_frames {
+            let body_t = if s.first_step { g.body_at(motion, 0)? } else { g.body_at(motion, s.frame)? };
+            let body_n = g.body_at(motion, s.frame + 1)?;
+            let dt = if s.first_step { g.scene.config.first_step_dt } else { g.scene.dt() };
+            let mut next = stepper.step(&frame_state(&g, &s, &body_t, &body_n, accel, dt))?;
+            g.pin_at(&mut next, motion, s.frame + 1)?;
+            if !finite(&next) {
+                break;
+            }
+            advance(&mut s, next, &g);
+            if step % t.pool_stride == 0 {
+                let state = PooledState {
+                    garment: s.garment,
+                    motion: s.motion,
+                    frame: s.frame,
+                    material: s.material,
+                    external: s.external,
+                    prev: s.prev.clone(),
+                    curr: s.curr.clone(),
+                };
+                let pool = &mut self.progress.pool;
+                if pool.len() < t.pool_size {
+                    pool.push(state);
+                } else {
+                    let i = self.progress.pool_next % pool.len();
+                    pool[i] = state;
+                }
+                self.progress.pool_next = (self.progress.pool_next + 1) % t.pool_size;
+            }
+        }
+        Ok(())
     }
 
     /// Runs one iteration (warm-up or training) and handles phase ends and checkpoints.
@@ -620,6 +739,12 @@ impl Trainer {
         if self.progress.warmup_done < self.config.train.warmup_iterations {
             let r = self.warmup_step()?;
             if self.progress.warmup_done == self.config.train.warmup_iterations {
+                let floor = self.config.train.velocity_std_floor;
+                if floor > 0.0 {
+                    for k in 0..3 {
+                        self.model.normalizers.node.set_floor(k, floor);
+                    }
+                }
                 tracing::info!(count = self.model.normalizers.node.count(), "warm-up done: normalisers fixed");
             }
             return Ok(Some(r));

@@ -107,6 +107,50 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// Training from the network's own rollout states (`pool_share`) with the Newton signal:
+/// the pool fills with the states a rollout reached (finite, on the run's garment and a
+/// training motion), pooled sequences start from them, and a kill and resume still gives
+/// the uninterrupted run's weights exactly (the pool is part of the checkpoint).
+#[test]
+fn visited_state_pool_and_newton_signal_resume_exactly() {
+    let d = tmp("pool");
+    let cfg = tiny_config(&d);
+    let text = std::fs::read_to_string(&cfg).unwrap().replace(
+        "[train]\n",
+        "[train]\npool_share = 1.0\npool_every = 3\npool_frames = 4\npool_stride = 2\npool_size = 3\nnewton_weight = 30.0\n",
+    );
+    std::fs::write(&cfg, text).unwrap();
+    let a = d.join("a");
+    let mut t = Trainer::new(&cfg, &a).unwrap();
+    let mut losses = Vec::new();
+    t.run(None, |r| {
+        if r.phase > 0 {
+            losses.push(r.loss)
+        }
+    })
+    .unwrap();
+    assert!(losses.iter().all(|l| l.is_finite()), "{losses:?}");
+    let pool = &t.progress.pool;
+    assert_eq!(pool.len(), 3, "pool_size states kept");
+    let n = t.garments()[0].rest.n_vertices();
+    for s in pool {
+        assert!(s.frame > 0, "a pooled state comes after a step, not frame {}", s.frame);
+        assert_eq!((s.prev.len(), s.curr.len()), (n, n));
+        assert!(s.curr.iter().chain(&s.prev).all(|p| p.iter().all(|c| c.is_finite())));
+        assert_ne!(s.prev, s.curr, "a rolled-out state moves");
+    }
+    let b = d.join("b");
+    let mut t = Trainer::new(&cfg, &b).unwrap();
+    t.run(Some(5), |_| {}).unwrap();
+    drop(t);
+    let mut t = Trainer::resume(&b).unwrap();
+    t.run(None, |_| {}).unwrap();
+    for phase in ["phase1", "phase2"] {
+        assert_eq!(params(&a.join(phase)), params(&b.join(phase)), "{phase}: resumed weights differ");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// A finished run whose saved config asks for more phase-2 iterations continues on
 /// `resume` from where it stopped; with the same count it stays finished.
 #[test]

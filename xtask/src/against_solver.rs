@@ -1,0 +1,71 @@
+//! `cargo xtask against-solver`: a network rolled out alone against the reference solver on
+//! the same motion, frame by frame (distance, rise, first step, stillness at the end). On a
+//! motion whose body holds still (`configs/rest-skirt.toml`'s `cmu_01_01_held`) it is the
+//! resting-case check: the garment must sag a little and hang still, as the solver's does.
+
+use std::path::PathBuf;
+
+use anyhow::{anyhow, Result};
+use senc_model::burn::tensor::Device;
+use senc_model::Model;
+use senc_train::eval::Method;
+use senc_train::resting::against_solver;
+use senc_train::trainer::scene_material;
+use senc_train::RunConfig;
+
+/// Arguments of `cargo xtask against-solver`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Checkpoint directory.
+    #[arg(long)]
+    pub checkpoint: PathBuf,
+    /// Config (default: the checkpoint's own).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Motion name (a training or test motion of the config's scene).
+    #[arg(long)]
+    pub motion: String,
+    /// Frames to simulate.
+    #[arg(long, default_value_t = 90)]
+    pub frames: usize,
+    /// Newton iterations per frame of the reference solver (phase-2 energy).
+    #[arg(long, default_value_t = 30)]
+    pub solver: usize,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs both rollouts and prints the comparison.
+pub fn run(a: &Args) -> Result<()> {
+    let m = Method::new(&a.checkpoint, a.config.as_deref())?;
+    let cfg = RunConfig::read(&m.config)?;
+    let g = m.load_garment(&cfg)?;
+    let (motion, _) = g.scene.motion(&a.motion).ok_or_else(|| {
+        let names: Vec<&str> = g.scene.train.iter().chain(&g.scene.test).map(|m| m.name.as_str()).collect();
+        anyhow!("no motion named {}; this scene has {}", a.motion, names.join(", "))
+    })?;
+    let material = scene_material(&g)?;
+    let energy = cfg.energy_for(2, material, g.scene.config.external_force.acceleration);
+    let model = Model::load(&m.checkpoint, &Device::flex())?;
+    let (c, _, _) = against_solver(&model, &g, motion, a.frames, &material, &energy, a.solver)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&c)?);
+        return Ok(());
+    }
+    println!(
+        "network against the reference solver ({} iterations per frame), {} frames of {}:",
+        a.solver, c.frames, a.motion
+    );
+    println!("  distance at the last frame   {:8.2} cm (largest {:.2} cm)", c.final_distance_cm, c.max_distance_cm);
+    println!("  rise above the solver's      {:8.2} cm", c.final_rise_cm);
+    println!(
+        "  first-step rise              {:8.2} cm (solver {:.2} cm)",
+        c.first_step_rise_cm, c.solver_first_step_rise_cm
+    );
+    println!(
+        "  speed over the last frames   {:8.3} cm/frame (solver {:.3} cm/frame)",
+        c.final_speed_cm, c.solver_final_speed_cm
+    );
+    Ok(())
+}
