@@ -8,23 +8,33 @@ use senc_energy::{EnergyConfig, EnergyModel};
 use senc_geom::obj::{read_obj, ObjData};
 use senc_geom::{TriMesh, Vec3};
 
-/// Command-line arguments of `cargo xtask energy`.
+/// Arguments of `cargo xtask energy`.
+#[derive(clap::Args)]
 pub struct Args {
-    /// Rest mesh.
+    /// Rest mesh of the garment (OBJ).
+    #[arg(long)]
     pub garment: PathBuf,
-    /// x[t+1].
+    /// The predicted positions x[t+1] (OBJ with the rest mesh's faces).
+    #[arg(long)]
     pub state: PathBuf,
-    /// x[t].
+    /// x[t] (without it there is no inertia term).
+    #[arg(long)]
     pub prev: Option<PathBuf>,
-    /// x[t−1].
+    /// x[t-1] (default: x[t], i.e. at rest).
+    #[arg(long)]
     pub prev2: Option<PathBuf>,
-    /// Body at t (and at t+1 unless `body_next` is given).
+    /// Body mesh at t (and at t+1 unless --body-next is given).
+    #[arg(long)]
     pub body: Option<PathBuf>,
-    /// Body at t+1 (same vertices and faces as `body`), for a moving body.
+    /// Body at t+1 for a moving body (OBJ with the body's vertices and faces).
+    #[arg(long)]
     pub body_next: Option<PathBuf>,
-    /// Energy config (TOML, or JSON by extension).
+    /// Energy config, TOML (or JSON with a .json extension): the fields of senc-energy's
+    /// `EnergyConfig`; missing fields take its defaults (HOOD's material).
+    #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Print one JSON object.
+    /// Print one JSON object: the present terms and `total`.
+    #[arg(long)]
     pub json: bool,
 }
 
@@ -55,7 +65,7 @@ fn read_config(path: &Path) -> Result<EnergyConfig> {
 }
 
 /// Runs the command.
-pub fn run(args: &Args) -> Result<()> {
+pub fn run(args: Args) -> Result<()> {
     let rest = read_obj(&args.garment).with_context(|| format!("reading garment {}", args.garment.display()))?;
     let mut config = match &args.config {
         Some(p) => read_config(p)?,
