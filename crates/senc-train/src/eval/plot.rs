@@ -125,7 +125,12 @@ pub fn runtime_svg(curve: &[CurvePoint]) -> Result<String, TrainError> {
             let (x0, x1) = (10f64.powf(lo.log10().floor()), 10f64.powf(hi.log10().ceil()).max(10.0 * lo));
             let ts = pts.iter().map(|p| scale.t(p.energy_gap));
             let (t0, t1) = ts.fold((0.0f64, 0.0f64), |(a, b), t| (a.min(t), b.max(t)));
-            let (t0, t1) = ((t0 - 0.3).floor(), (t1 + 0.3).ceil());
+            // Room above the data for the legend (upper right): one line per series plus
+            // the reference line, about 18 px each, in a plot about 360 px tall.
+            let legend_px = 18.0 * (series.len() + 1) as f64 + 16.0;
+            let span = (t1 - t0 + 0.6).max(1.0);
+            let headroom = span * legend_px / (360.0 - legend_px);
+            let (t0, t1) = ((t0 - 0.3).floor(), (t1 + 0.3 + headroom).ceil());
             let mut chart = ChartBuilder::on(panel)
                 .caption(format!("{garment}: energy gap against run time"), ("sans-serif", 17))
                 .margin(12)
@@ -137,7 +142,7 @@ pub fn runtime_svg(curve: &[CurvePoint]) -> Result<String, TrainError> {
                 .configure_mesh()
                 .x_desc("milliseconds per frame (log)")
                 .y_desc("E − E(converged), J (symmetric log)")
-                .y_labels((t1 - t0) as usize + 1)
+                .y_labels(((t1 - t0) as usize + 1).min(12))
                 .y_label_formatter(&|t| scale.label(*t))
                 .x_label_formatter(&|x| if *x >= 1.0 { format!("{x:.0}") } else { format!("{x}") })
                 .light_line_style(WHITE)
