@@ -31,7 +31,7 @@ impl Default for Material {
     }
 }
 
-/// HOOD's sampling ranges for training (DESIGN.md section 3).
+/// HOOD's sampling ranges of the material for training.
 pub mod hood_ranges {
     /// μ, log-uniform, Pa.
     pub const MU: [f64; 2] = [15909.0, 63636.0];
