@@ -12,7 +12,7 @@ use senc_geom::{close_holes, Closure, Vec3};
 use senc_gia::{GiaOptions, GiaWorkspace};
 use senc_model::burn::tensor::Device;
 use senc_model::Model;
-use senc_scene::BodyQuery;
+use senc_scene::{BodyQuery, Motion};
 use serde::Serialize;
 
 use super::method::{Method, SOLVER_LABEL};
@@ -135,41 +135,51 @@ fn row(label: &str, g: &Garment, rollouts: &[Rollout], meter: &mut VolumeMeter) 
     })
 }
 
-/// The phase-2 energy of `cfg` on garment `g` with the scene's material and force.
-fn scene_energy(cfg: &RunConfig, g: &Garment) -> Result<EnergyConfig, TrainError> {
-    let material = scene_material(g)?;
-    Ok(cfg.energy_for(2, material, g.scene.config.external_force.acceleration))
+/// What every row needs: the config, its garment (with test motions), the phase-2 energy
+/// with the scene's material and force, and a volume meter.
+struct Setup {
+    cfg: RunConfig,
+    g: Garment,
+    energy: EnergyConfig,
+    meter: VolumeMeter,
 }
 
-fn require_test_motions(g: &Garment, cfg: &RunConfig) -> Result<(), TrainError> {
-    if g.scene.test.is_empty() {
-        return Err(TrainError::Invalid(format!("{}: no test motions in [scene.motions] test", cfg.path.display())));
+impl Setup {
+    fn new(method: &Method) -> Result<Self, TrainError> {
+        let cfg = RunConfig::read(&method.config)?;
+        let g = method.load_garment(&cfg)?;
+        if g.scene.test.is_empty() {
+            return Err(TrainError::Invalid(format!(
+                "{}: no test motions in [scene.motions] test",
+                cfg.path.display()
+            )));
+        }
+        let energy = cfg.energy_for(2, scene_material(&g)?, g.scene.config.external_force.acceleration);
+        let meter = VolumeMeter::new(&g)?;
+        Ok(Self { cfg, g, energy, meter })
     }
-    Ok(())
+
+    /// One rollout per test motion, in order.
+    fn roll(&self, f: impl Fn(&Motion) -> Result<Rollout, TrainError>) -> Result<Vec<Rollout>, TrainError> {
+        self.g.scene.test.iter().map(f).collect()
+    }
 }
 
 /// Evaluates one method: its Table-1 row and the network's error-against-run-time points.
 pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
-    let cfg = RunConfig::read(&method.config)?;
-    let g = method.load_garment(&cfg)?;
-    require_test_motions(&g, &cfg)?;
+    let mut s = Setup::new(method)?;
     let model = Model::load(&method.checkpoint, &Device::flex())?;
-    let material = scene_material(&g)?;
-    let ext = Vec3::from(g.scene.config.external_force.acceleration);
-    let energy = scene_energy(&cfg, &g)?;
-    let mut meter = VolumeMeter::new(&g)?;
-    let rollouts = g
-        .scene
-        .test
-        .iter()
-        .map(|motion| {
-            let refine = Some(Refine { energy: &energy, iterations: method.refine });
-            network_rollout(&model, &g, motion, cfg.eval.frames, ext, &material, refine)
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let row = row(&method.label, &g, &rollouts, &mut meter)?;
-    let curve =
-        if method.curve { error_vs_runtime(method, &cfg, &g, &model, &rollouts[0], &mut meter)? } else { Vec::new() };
+    let material = scene_material(&s.g)?;
+    let ext = Vec3::from(s.g.scene.config.external_force.acceleration);
+    let rollouts = s.roll(|motion| {
+        let refine = Some(Refine { energy: &s.energy, iterations: method.refine });
+        network_rollout(&model, &s.g, motion, s.cfg.eval.frames, ext, &material, refine)
+    })?;
+    let row = row(&method.label, &s.g, &rollouts, &mut s.meter)?;
+    let curve = match method.curve {
+        true => error_vs_runtime(method, &s.cfg, &s.g, &model, &rollouts[0], &mut s.meter)?,
+        false => Vec::new(),
+    };
     Ok((row, curve))
 }
 
@@ -178,18 +188,10 @@ pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
 /// `[eval] converged_iterations` iterations (the converged reference of the
 /// error-against-run-time curve), on the phase-2 energy.
 pub fn evaluate_solver(method: &Method) -> Result<Row, TrainError> {
-    let cfg = RunConfig::read(&method.config)?;
-    let g = method.load_garment(&cfg)?;
-    require_test_motions(&g, &cfg)?;
-    let energy = scene_energy(&cfg, &g)?;
-    let mut meter = VolumeMeter::new(&g)?;
-    let rollouts = g
-        .scene
-        .test
-        .iter()
-        .map(|motion| solver_rollout(&g, motion, cfg.eval.frames, &energy, cfg.eval.converged_iterations))
-        .collect::<Result<Vec<_>, _>>()?;
-    row(SOLVER_LABEL, &g, &rollouts, &mut meter)
+    let mut s = Setup::new(method)?;
+    let (frames, iterations) = (s.cfg.eval.frames, s.cfg.eval.converged_iterations);
+    let rollouts = s.roll(|motion| solver_rollout(&s.g, motion, frames, &s.energy, iterations))?;
+    row(SOLVER_LABEL, &s.g, &rollouts, &mut s.meter)
 }
 
 #[cfg(test)]
