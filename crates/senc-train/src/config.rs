@@ -291,6 +291,15 @@ pub const TABLES: &[&str] = &["scene", "train", "model", "energy", "eval"];
 pub const PATH_KEYS: &[&str] =
     &["scene.garment", "scene.body", "scene.motions.train", "scene.motions.test", "train.scenes"];
 
+/// A config document's error as senc-train's (a bad file, `extends` or override is a
+/// config error, not a scene error).
+fn config_error(e: senc_scene::SceneError) -> TrainError {
+    match e {
+        senc_scene::SceneError::Config { path, message } => TrainError::Config { path, message },
+        e => TrainError::Scene(e),
+    }
+}
+
 fn section<T: for<'de> Deserialize<'de> + Default>(
     table: &toml::Table,
     name: &str,
@@ -309,12 +318,12 @@ impl RunConfig {
     /// Parses the tables of `text` (the file `path`; an `extends` in it is read relative to
     /// `path`'s directory).
     pub fn parse(text: &str, path: &Path) -> Result<Self, TrainError> {
-        Self::from_document(&ConfigDocument::parse(text, path, PATH_KEYS)?)
+        Self::from_document(&ConfigDocument::parse(text, path, PATH_KEYS).map_err(config_error)?)
     }
 
     /// Reads a config file and the files it extends.
     pub fn read(path: impl AsRef<Path>) -> Result<Self, TrainError> {
-        Self::from_document(&ConfigDocument::read(path.as_ref(), PATH_KEYS)?)
+        Self::from_document(&ConfigDocument::read(path.as_ref(), PATH_KEYS).map_err(config_error)?)
     }
 
     /// The config of a resolved document. Unknown top-level tables and unknown keys in
@@ -348,12 +357,12 @@ impl RunConfig {
     /// applied in order (dotted keys, TOML values: `train.phase2_iterations=100`). The result
     /// is checked as [`RunConfig::read`] checks a file, so an unknown key is refused here.
     pub fn resolve(path: &Path, seed: Option<u64>, overrides: &[String]) -> Result<ConfigDocument, TrainError> {
-        let mut doc = ConfigDocument::read(path, PATH_KEYS)?;
+        let mut doc = ConfigDocument::read(path, PATH_KEYS).map_err(config_error)?;
         if let Some(seed) = seed {
-            doc.set(&format!("train.seed={seed}"))?;
+            doc.set(&format!("train.seed={seed}")).map_err(config_error)?;
         }
         for o in overrides {
-            doc.set(o)?;
+            doc.set(o).map_err(config_error)?;
         }
         Self::from_document(&doc)?;
         Ok(doc)
