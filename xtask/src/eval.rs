@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use senc_train::eval::{
     evaluate, evaluate_solver, first_scene, one_step_probe, write_reports, CurvePoint, MarkdownTable, Method, Row,
-    SOLVER_SERIES,
+    RISE_FRAME, SOLVER_SERIES,
 };
 use senc_train::RunConfig;
 
@@ -124,7 +124,7 @@ fn print_row(row: &Row) {
     let rise = row.rise_30_cm.map_or("–".to_string(), |r| format!("{r:.1} cm"));
     println!(
         "{} {}: V {:.3} cm³, L_self-col {:.3e}, >0.1 {:.1}%, >0.01 {:.1}%, body {:.2}%, from skinned {:.1} cm, \
-         rise after 30 frames {rise}, {:.1} FPS",
+         rise after {RISE_FRAME} frames {rise}, {:.1} FPS",
         row.method,
         row.garment,
         row.volume_cm3,
