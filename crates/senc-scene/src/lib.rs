@@ -28,7 +28,7 @@ pub mod skeleton;
 pub use assets::{BodyAsset, GarmentAsset, NamedLoop};
 pub use body_query::BodyQuery;
 pub use bvh::Bvh;
-pub use config::{ConfigDocument, SceneConfig};
+pub use config::SceneConfig;
 pub use error::SceneError;
 pub use motion::Motion;
 pub use scene::{InitialState, Scene, Split};

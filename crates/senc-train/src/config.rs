@@ -2,7 +2,7 @@
 //! config file (the `[scene]` table belongs to senc-scene). Every key has a default, so a
 //! plain scene file trains with the defaults below. Unknown keys are refused, naming them.
 //! A file may extend another and change only what differs (`extends = "tshirt.toml"`, see
-//! [`senc_scene::ConfigDocument`]); `cargo xtask train --seed N --set key=value` changes
+//! [`senc_scene::config::ConfigDocument`]); `cargo xtask train --seed N --set key=value` changes
 //! the resolved config, and the run saves the result beside its checkpoints.
 //!
 //! ```toml
@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 
 use senc_energy::EnergyConfig;
 use senc_model::{GraphConfig, ModelConfig, SelfEdges};
-use senc_scene::ConfigDocument;
+use senc_scene::config::ConfigDocument;
 use serde::{Deserialize, Serialize};
 
 use crate::error::TrainError;
