@@ -38,19 +38,25 @@ pub struct Args {
     pub json: bool,
 }
 
-fn read_state(path: &Path, rest: &TriMesh, what: &str) -> Result<Vec<Vec3>> {
-    let data = ObjData::read(path).with_context(|| format!("reading {what}"))?;
-    if data.positions.len() != rest.n_vertices() || data.faces != rest.faces() {
+/// Positions of an OBJ that must have the vertices and faces of `mesh` (a moved copy of it);
+/// `what` names the file in errors, `of` the mesh it must match.
+fn read_moved(path: &Path, mesh: &TriMesh, what: &str, of: &str) -> Result<Vec<Vec3>> {
+    let data = ObjData::read(path).with_context(|| format!("reading {what} {}", path.display()))?;
+    if data.positions.len() != mesh.n_vertices() || data.faces != mesh.faces() {
         bail!(
-            "{what} {} has {} vertices and {} faces but the garment has {} and {}; states must use the rest mesh's vertices and faces",
+            "{what} {} has {} vertices and {} faces but the {of} has {} and {}; it must be the {of}'s mesh moved",
             path.display(),
             data.positions.len(),
             data.faces.len(),
-            rest.n_vertices(),
-            rest.n_faces()
+            mesh.n_vertices(),
+            mesh.n_faces()
         );
     }
     Ok(data.positions)
+}
+
+fn read_state(path: &Path, rest: &TriMesh, what: &str) -> Result<Vec<Vec3>> {
+    read_moved(path, rest, what, "garment")
 }
 
 fn read_config(path: &Path) -> Result<EnergyConfig> {
@@ -94,20 +100,7 @@ pub fn run(args: Args) -> Result<()> {
     let body_next = match (&args.body_next, &body) {
         (None, _) => None,
         (Some(_), None) => bail!("--body-next needs --body (the body at t)"),
-        (Some(p), Some(b)) => {
-            let data = ObjData::read(p).with_context(|| format!("reading --body-next {}", p.display()))?;
-            if data.positions.len() != b.n_vertices() || data.faces != b.faces() {
-                bail!(
-                    "--body-next {} has {} vertices and {} faces but the body has {} and {}; it must be the same body mesh moved",
-                    p.display(),
-                    data.positions.len(),
-                    data.faces.len(),
-                    b.n_vertices(),
-                    b.n_faces()
-                );
-            }
-            Some(data.positions)
-        }
+        (Some(p), Some(b)) => Some(read_moved(p, b, "--body-next", "body")?),
     };
     let model = EnergyModel::new(&rest, &config, body.as_ref())?;
     let frame = model.frame(
