@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-# Copied unchanged (apart from this header) from the team's shared/tools/penetration_oracle.py,
-# the reference-volume oracle described in shared/DESIGN.md section 2 ("Checks by another route").
+# The reference-volume oracle: the volume of space that the surface winds around twice or
+# more, or negatively, from libigl's exact arrangement (another route than GIA).
 # Kept here so that tools/libigl_answers.py and tools/time_libigl.py can import it.
 """Reference penetration volume of a closed (or fan-closed) triangle mesh, by another route than GIA.
 

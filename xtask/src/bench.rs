@@ -13,7 +13,7 @@
 //!
 //! `--export DIR` writes the graph for `tools/bench_torch.py --graph DIR/graph`; `--torch`
 //! exports (to a temporary directory unless `--export`) and runs that script right after, so
-//! the ratios burn / PyTorch come from one session. Times are medians after one warm-up.
+//! the ratios burn / PyTorch come from one run on one machine. Times are medians after one warm-up.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -26,64 +26,64 @@ use senc_model::{BodyState, EdgeType, FrameState, ModelConfig};
 use senc_train::eval::first_scene;
 use senc_train::{Garment, RunConfig};
 
+/// Arguments of `cargo xtask bench`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// What to time.
+    #[command(subcommand)]
+    pub target: Target,
+}
+
 /// What `cargo xtask bench` times.
 #[derive(Subcommand)]
 pub enum Target {
     /// The network: graph building, inference and forward + backward (burn, optionally PyTorch).
-    Model {
-        /// Config whose scene and `[model]` table to use.
-        #[arg(long, default_value = "configs/tshirt.toml")]
-        config: PathBuf,
-        /// Frame of the first training motion to build the graph at.
-        #[arg(long, default_value_t = 40)]
-        frame: usize,
-        /// Timed runs per measurement (median; one warm-up run first).
-        #[arg(long, default_value_t = 3)]
-        reps: usize,
-        /// Full HOOD size with one rep only; skip the synthetic scaling and operation profile.
-        #[arg(long)]
-        quick: bool,
-        /// Write the graph to DIR/graph.* for tools/bench_torch.py.
-        #[arg(long)]
-        export: Option<PathBuf>,
-        /// Run tools/bench_torch.py (python3, torch) on the same graph and print the ratios.
-        #[arg(long)]
-        torch: bool,
-        /// Sizes to time, any of `config`, `hood1` (HOOD with one block), `hood` (for
-        /// profiling one size; `--torch` needs all three).
-        #[arg(long, value_delimiter = ',', default_value = "config,hood1,hood")]
-        sizes: Vec<String>,
-        /// Skip the forward + backward timing (inference only).
-        #[arg(long)]
-        no_backward: bool,
-        /// Device to time the network on: cpu (default) or vulkan (build with `--features
-        /// gpu`). Graph building always runs on the CPU.
-        #[arg(long, default_value = "cpu")]
-        device: String,
-    },
+    Model(ModelArgs),
+}
+
+/// Arguments of `cargo xtask bench model`.
+#[derive(clap::Args)]
+pub struct ModelArgs {
+    /// Config whose scene and `[model]` table to use.
+    #[arg(long, default_value = "configs/tshirt.toml")]
+    pub config: PathBuf,
+    /// Frame of the first training motion to build the graph at.
+    #[arg(long, default_value_t = 40)]
+    pub frame: usize,
+    /// Timed runs per measurement (median; one warm-up run first).
+    #[arg(long, default_value_t = 3)]
+    pub reps: usize,
+    /// Full HOOD size with one rep only; skip the synthetic scaling and operation profile.
+    #[arg(long)]
+    pub quick: bool,
+    /// Write the graph to DIR/graph.* for tools/bench_torch.py.
+    #[arg(long)]
+    pub export: Option<PathBuf>,
+    /// Run tools/bench_torch.py (python3, torch) on the same graph and print the ratios.
+    #[arg(long)]
+    pub torch: bool,
+    /// Sizes to time, any of `config`, `hood1` (HOOD with one block), `hood` (for
+    /// profiling one size; `--torch` needs all three).
+    #[arg(long, value_delimiter = ',', default_value = "config,hood1,hood")]
+    pub sizes: Vec<String>,
+    /// Skip the forward + backward timing (inference only).
+    #[arg(long)]
+    pub no_backward: bool,
+    /// Device to time the network on: cpu (default) or vulkan (build with `--features
+    /// gpu`). Graph building always runs on the CPU.
+    #[arg(long, default_value = "cpu")]
+    pub device: String,
 }
 
 /// Runs one benchmark target.
-pub fn run(target: Target) -> Result<()> {
-    match target {
-        Target::Model { config, frame, reps, quick, export, torch, sizes, no_backward, device } => {
-            if torch && (sizes.len() != 3 || no_backward) {
+pub fn run(args: Args) -> Result<()> {
+    match args.target {
+        Target::Model(m) => {
+            if m.torch && (m.sizes.len() != 3 || m.no_backward) {
                 bail!("--torch compares all three sizes with backward; drop --sizes and --no-backward");
             }
-            let device_name = device;
-            let device = senc_model::device_named(&device_name)?;
-            model(&Opts {
-                config,
-                frame,
-                reps,
-                quick,
-                export,
-                torch,
-                sizes,
-                backward: !no_backward,
-                device,
-                device_name,
-            })
+            let device = senc_model::device_named(&m.device)?;
+            model(&m, &device)
         }
     }
 }
@@ -106,21 +106,7 @@ fn sizes(own: &ModelConfig) -> Vec<(String, ModelConfig)> {
     ]
 }
 
-/// Options of `bench model`.
-struct Opts {
-    config: PathBuf,
-    frame: usize,
-    reps: usize,
-    quick: bool,
-    export: Option<PathBuf>,
-    torch: bool,
-    sizes: Vec<String>,
-    backward: bool,
-    device: senc_model::burn::tensor::Device,
-    device_name: String,
-}
-
-fn model(o: &Opts) -> Result<()> {
+fn model(o: &ModelArgs, device: &senc_model::burn::tensor::Device) -> Result<()> {
     let (config, frame, reps, quick, torch) = (o.config.as_path(), o.frame, o.reps, o.quick, o.torch);
     for s in &o.sizes {
         if !["config", "hood1", "hood"].contains(&s.as_str()) {
@@ -186,7 +172,7 @@ fn model(o: &Opts) -> Result<()> {
     let own = cfg.model.model_config();
     println!(
         "\n## network, burn on {} (median of {reps}; full HOOD {} rep(s)); load {}",
-        o.device_name,
+        o.device,
         if quick { 1 } else { reps },
         load()
     );
@@ -196,7 +182,7 @@ fn model(o: &Opts) -> Result<()> {
             continue;
         }
         let r = if quick && k == 2 { 1 } else { reps };
-        let t = bench_network(&label, &c, &graph, r, o.backward, &o.device);
+        let t = bench_network(&label, &c, &graph, r, !o.no_backward, device);
         println!(
             "{:34} params {:7} | upload {:6.1} ms | forward {:8.1} ms | fused {:8.1} ms | forward+backward {:8.1} ms | fps incl. graph: burn {:.1}, fused {:.1}",
             t.label,
@@ -267,7 +253,7 @@ fn torch_compare(dir: &Path, own: &ModelConfig, reps: usize, quick: bool, rows: 
     let v: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("parsing {}", json.display()))?;
     let Some(torch_rows) = v["rows"].as_array() else { bail!("{} has no rows", json.display()) };
     println!(
-        "\n## burn / PyTorch (same graph, same session; targets at HOOD size: forward <= 0.7, forward+backward <= 1.0)"
+        "\n## burn / PyTorch (same graph, same run; targets at HOOD size: forward <= 0.7, forward+backward <= 1.0)"
     );
     for (burn, t) in rows.iter().zip(torch_rows) {
         let (tf, tb) = (t["forward"].as_f64().unwrap_or(f64::NAN), t["forward_backward"].as_f64().unwrap_or(f64::NAN));

@@ -1,12 +1,27 @@
 //! `cargo xtask check-mesh`: validate a mesh and print its topology.
 
-use std::path::Path;
+use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use senc_geom::remesh::RemeshConfig;
 use senc_geom::{close_holes, obj::read_obj, HoleSelection};
 
-pub fn run(path: &Path, close: bool, json: bool) -> Result<()> {
+/// Arguments of `cargo xtask check-mesh`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The OBJ file.
+    pub mesh: PathBuf,
+    /// Close every boundary loop with a centroid fan.
+    #[arg(long)]
+    pub close_holes: bool,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Reads the mesh and prints its topology and triangle quality.
+pub fn run(args: Args) -> Result<()> {
+    let (path, close, json) = (args.mesh.as_path(), args.close_holes, args.json);
     let mesh = read_obj(path).with_context(|| format!("reading {}", path.display()))?;
     let topo = mesh.topology();
     let loops: Vec<usize> = topo.boundary_loops().iter().map(|l| l.len()).collect();

@@ -8,39 +8,55 @@ use senc_energy::{EnergyConfig, EnergyModel};
 use senc_geom::obj::{read_obj, ObjData};
 use senc_geom::{TriMesh, Vec3};
 
-/// Command-line arguments of `cargo xtask energy`.
+/// Arguments of `cargo xtask energy`.
+#[derive(clap::Args)]
 pub struct Args {
-    /// Rest mesh.
+    /// Rest mesh of the garment (OBJ).
+    #[arg(long)]
     pub garment: PathBuf,
-    /// x[t+1].
+    /// The predicted positions x[t+1] (OBJ with the rest mesh's faces).
+    #[arg(long)]
     pub state: PathBuf,
-    /// x[t].
+    /// x[t] (without it there is no inertia term).
+    #[arg(long)]
     pub prev: Option<PathBuf>,
-    /// x[t−1].
+    /// x[t-1] (default: x[t], i.e. at rest).
+    #[arg(long)]
     pub prev2: Option<PathBuf>,
-    /// Body at t (and at t+1 unless `body_next` is given).
+    /// Body mesh at t (and at t+1 unless --body-next is given).
+    #[arg(long)]
     pub body: Option<PathBuf>,
-    /// Body at t+1 (same vertices and faces as `body`), for a moving body.
+    /// Body at t+1 for a moving body (OBJ with the body's vertices and faces).
+    #[arg(long)]
     pub body_next: Option<PathBuf>,
-    /// Energy config (TOML, or JSON by extension).
+    /// Energy config, TOML (or JSON with a .json extension): the fields of senc-energy's
+    /// `EnergyConfig`; missing fields take its defaults (HOOD's material).
+    #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Print one JSON object.
+    /// Print one JSON object: the present terms and `total`.
+    #[arg(long)]
     pub json: bool,
 }
 
-fn read_state(path: &Path, rest: &TriMesh, what: &str) -> Result<Vec<Vec3>> {
-    let data = ObjData::read(path).with_context(|| format!("reading {what}"))?;
-    if data.positions.len() != rest.n_vertices() || data.faces != rest.faces() {
+/// Positions of an OBJ that must have the vertices and faces of `mesh` (a moved copy of it);
+/// `what` names the file in errors, `of` the mesh it must match.
+fn read_moved(path: &Path, mesh: &TriMesh, what: &str, of: &str) -> Result<Vec<Vec3>> {
+    let data = ObjData::read(path).with_context(|| format!("reading {what} {}", path.display()))?;
+    if data.positions.len() != mesh.n_vertices() || data.faces != mesh.faces() {
         bail!(
-            "{what} {} has {} vertices and {} faces but the garment has {} and {}; states must use the rest mesh's vertices and faces",
+            "{what} {} has {} vertices and {} faces but the {of} has {} and {}; it must be the {of}'s mesh moved",
             path.display(),
             data.positions.len(),
             data.faces.len(),
-            rest.n_vertices(),
-            rest.n_faces()
+            mesh.n_vertices(),
+            mesh.n_faces()
         );
     }
     Ok(data.positions)
+}
+
+fn read_state(path: &Path, rest: &TriMesh, what: &str) -> Result<Vec<Vec3>> {
+    read_moved(path, rest, what, "garment")
 }
 
 fn read_config(path: &Path) -> Result<EnergyConfig> {
@@ -55,7 +71,7 @@ fn read_config(path: &Path) -> Result<EnergyConfig> {
 }
 
 /// Runs the command.
-pub fn run(args: &Args) -> Result<()> {
+pub fn run(args: Args) -> Result<()> {
     let rest = read_obj(&args.garment).with_context(|| format!("reading garment {}", args.garment.display()))?;
     let mut config = match &args.config {
         Some(p) => read_config(p)?,
@@ -84,20 +100,7 @@ pub fn run(args: &Args) -> Result<()> {
     let body_next = match (&args.body_next, &body) {
         (None, _) => None,
         (Some(_), None) => bail!("--body-next needs --body (the body at t)"),
-        (Some(p), Some(b)) => {
-            let data = ObjData::read(p).with_context(|| format!("reading --body-next {}", p.display()))?;
-            if data.positions.len() != b.n_vertices() || data.faces != b.faces() {
-                bail!(
-                    "--body-next {} has {} vertices and {} faces but the body has {} and {}; it must be the same body mesh moved",
-                    p.display(),
-                    data.positions.len(),
-                    data.faces.len(),
-                    b.n_vertices(),
-                    b.n_faces()
-                );
-            }
-            Some(data.positions)
-        }
+        (Some(p), Some(b)) => Some(read_moved(p, b, "--body-next", "body")?),
     };
     let model = EnergyModel::new(&rest, &config, body.as_ref())?;
     let frame = model.frame(

@@ -1,17 +1,70 @@
 //! `cargo xtask eval --checkpoint DIR [--compare DIR ...] [--config C.toml ...] [--garment G]
-//! [--refine N,...] [--out reports]`: Table 1 (penetration volume, L_self-col, % frames above thresholds,
-//! body penetration, FPS) and the error against run time (reference solver budgets against
-//! each network).
+//! [--refine N,...] [--out reports]`: Table 1 (penetration volume, L_self-col, % frames above
+//! thresholds, body penetration, distance from and rise above the skinned garment, FPS), with
+//! the reference solver as a row per garment, and the error against run time (reference
+//! solver budgets against each network). `cargo xtask probe`: the one-step probe.
 //!
 //! With several `--config` files, each checkpoint is evaluated with the one whose garment is
 //! the garment it was trained on, so one table holds t-shirt and skirt rows. `--garment`
 //! swaps in a garment the models never saw (an OBJ is fitted to the body first).
 
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use senc_train::eval::{evaluate, first_scene, one_step_probe, write_reports, Method};
+use senc_train::eval::{
+    evaluate, evaluate_solver, first_scene, one_step_probe, write_reports, CurvePoint, MarkdownTable, Method, Row,
+    RISE_FRAME, SOLVER_SERIES,
+};
 use senc_train::RunConfig;
+
+/// Arguments of `cargo xtask eval`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Checkpoint directory (e.g. runs/tshirt/phase2).
+    #[arg(long)]
+    pub checkpoint: PathBuf,
+    /// More checkpoints, one row each.
+    #[arg(long, num_args = 1..)]
+    pub compare: Vec<PathBuf>,
+    /// Config whose scene, energy and [eval] settings to use (default: each checkpoint's own).
+    /// Several: each checkpoint uses the one with its training garment (t-shirt and skirt
+    /// rows in one table).
+    #[arg(long, num_args = 1..)]
+    pub config: Vec<PathBuf>,
+    /// A garment the models never saw: an OBJ in metres (fitted to the body first, as
+    /// `cargo xtask fit` does) or a fitted .msgpack asset. Every loop but `neck` is closed.
+    #[arg(long)]
+    pub garment: Option<PathBuf>,
+    /// Also roll each checkpoint out with every frame refined by N Newton iterations of
+    /// the reference solver (phase-2 energy), one row per value: `--refine 0,2` gives the
+    /// network alone and refined by 2. Default 0.
+    #[arg(long, value_delimiter = ',')]
+    pub refine: Vec<usize>,
+    /// Output directory for table1.md/.csv/.json and runtime.md/.csv/.svg.
+    #[arg(long, default_value = "reports")]
+    pub out: PathBuf,
+}
+
+/// Arguments of `cargo xtask probe`.
+#[derive(clap::Args)]
+pub struct ProbeArgs {
+    /// Run config (its first scene and training motions).
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Checkpoint whose network is probed (none: only the classical predictors).
+    #[arg(long)]
+    pub checkpoint: Option<PathBuf>,
+    /// States sampled from the training motions.
+    #[arg(long, default_value_t = 8)]
+    pub states: usize,
+    /// Solver iteration budgets to compare.
+    #[arg(long, value_delimiter = ',', default_value = "1,4")]
+    pub budgets: Vec<usize>,
+    /// Iterations of the converged reference.
+    #[arg(long, default_value_t = 50)]
+    pub converged: usize,
+}
 
 /// The garment asset a config's first scene uses (canonical path, for matching).
 fn scene_garment(config: &Path) -> Result<PathBuf> {
@@ -67,28 +120,41 @@ pub fn prepare_garment(garment: &Path, config: &Path) -> Result<PathBuf> {
     }
 }
 
-/// Evaluates every checkpoint and writes the reports.
-pub fn run(
-    checkpoint: &Path,
-    compare: &[PathBuf],
-    configs: &[PathBuf],
-    garment: Option<&Path>,
-    refine: &[usize],
-    out: &Path,
-) -> Result<()> {
+fn print_row(row: &Row) {
+    let rise = row.rise_30_cm.map_or("–".to_string(), |r| format!("{r:.1} cm"));
+    println!(
+        "{} {}: V {:.3} cm³, L_self-col {:.3e}, >0.1 {:.1}%, >0.01 {:.1}%, body {:.2}%, from skinned {:.1} cm, \
+         rise after {RISE_FRAME} frames {rise}, {:.1} FPS",
+        row.method,
+        row.garment,
+        row.volume_cm3,
+        row.l_selfcol,
+        row.pct_above_0_1,
+        row.pct_above_0_01,
+        row.body_penetration_pct,
+        row.departure_cm,
+        row.fps
+    );
+}
+
+/// Evaluates every checkpoint, adds the reference solver's row per garment, and writes the
+/// reports.
+pub fn run(args: Args) -> Result<()> {
     let mut rows = Vec::new();
-    let mut curve = Vec::new();
-    let refine = if refine.is_empty() { &[0][..] } else { refine };
-    let mut curve_done = std::collections::HashSet::new();
-    let mut fitted: std::collections::HashMap<PathBuf, PathBuf> = std::collections::HashMap::new();
-    let checkpoints = std::iter::once(checkpoint).chain(compare.iter().map(|p| p.as_path()));
+    let mut curve: Vec<CurvePoint> = Vec::new();
+    let refine = if args.refine.is_empty() { vec![0] } else { args.refine.clone() };
+    let mut curve_done = HashSet::new();
+    let mut fitted: HashMap<PathBuf, PathBuf> = HashMap::new();
+    // The solver's row once per (config, garment), after the networks on it.
+    let mut solver_for: Vec<Method> = Vec::new();
+    let checkpoints = std::iter::once(&args.checkpoint).chain(&args.compare);
     for (ck, &iterations) in checkpoints.flat_map(|c| refine.iter().map(move |r| (c, r))) {
-        let config = pick_config(ck, configs)?;
+        let config = pick_config(ck, &args.config)?;
         let mut m = Method::new(ck, config.as_deref())?.with_refine(iterations);
         // A checkpoint's curve once: from its first row (with `--refine 0,2`, the network
         // alone, whose points include the refined answers on the same states).
         m.curve = curve_done.insert(ck.to_path_buf());
-        if let Some(g) = garment {
+        if let Some(g) = &args.garment {
             // Fitted once per config, not once per `--refine` row.
             let asset = match fitted.get(&m.config) {
                 Some(a) => a,
@@ -98,56 +164,49 @@ pub fn run(
         }
         eprintln!("evaluating {} on {}", m.label, m.config.display());
         let (row, c) = evaluate(&m).with_context(|| format!("evaluating {}", ck.display()))?;
-        println!(
-            "{} {}: V {:.3} cm³, L_self-col {:.3e}, >0.1 {:.1}%, >0.01 {:.1}%, body {:.2}%, from skinned {:.1} cm, {:.1} FPS",
-            row.method,
-            row.garment,
-            row.volume_cm3,
-            row.l_selfcol,
-            row.pct_above_0_1,
-            row.pct_above_0_01,
-            row.body_penetration_pct,
-            row.departure_cm,
-            row.fps
-        );
+        print_row(&row);
         if m.refine > 0 {
             println!(
                 "  network answer rejected (refined from the inertial target) in {:.1}% of frames",
                 row.rejected_pct
             );
         }
+        if !solver_for.iter().any(|s| s.config == m.config && s.garment == m.garment) {
+            solver_for.push(m.clone());
+        }
         rows.push(row);
         // Solver points are per garment; keep them once per garment.
         for p in c {
-            if p.series == "solver"
-                && curve.iter().any(|q: &senc_train::eval::CurvePoint| q.method == p.method && q.garment == p.garment)
-            {
+            if p.series == SOLVER_SERIES && curve.iter().any(|q| q.method == p.method && q.garment == p.garment) {
                 continue;
             }
             curve.push(p);
         }
     }
+    for m in &solver_for {
+        eprintln!("evaluating the reference solver on {}", m.config.display());
+        let row = evaluate_solver(m).with_context(|| format!("the reference solver on {}", m.config.display()))?;
+        print_row(&row);
+        rows.push(row);
+    }
     let command = std::env::args().skip(1).collect::<Vec<_>>().join(" ");
-    write_reports(out, &rows, &curve, &format!("cargo xtask {command}"))?;
-    println!("wrote {}/table1.md (+ .csv, .json) and runtime.md (+ .csv, .svg)", out.display());
+    write_reports(&args.out, &rows, &curve, &format!("cargo xtask {command}"))?;
+    println!("wrote {}/table1.md (+ .csv, .json) and runtime.md (+ .csv, .svg)", args.out.display());
     Ok(())
 }
 
 /// `cargo xtask probe`: prints the one-step gaps as a Markdown table.
-pub fn probe(
-    config: &Path,
-    checkpoint: Option<&Path>,
-    states: usize,
-    budgets: &[usize],
-    converged: usize,
-) -> Result<()> {
-    let (rows, reference) = one_step_probe(config, checkpoint, states, budgets, converged)?;
-    let names: Vec<&str> = reference.terms.iter().map(|(n, _)| n.as_str()).collect();
-    println!("| predictor | gap (J) | {} |", names.join(" | "));
-    println!("|---|---:|{}", "---:|".repeat(names.len()));
+pub fn probe(args: ProbeArgs) -> Result<()> {
+    let (rows, reference) =
+        one_step_probe(&args.config, args.checkpoint.as_deref(), args.states, &args.budgets, args.converged)?;
+    let mut headers = vec!["predictor".to_string(), "gap (J)".to_string()];
+    headers.extend(reference.terms.iter().map(|(n, _)| n.clone()));
+    let mut t = MarkdownTable::new(&headers, 1);
     for r in rows.iter().chain(std::iter::once(&reference)) {
-        let t: Vec<String> = r.terms.iter().map(|(_, v)| format!("{v:.3e}")).collect();
-        println!("| {} | {:.3e} | {} |", r.predictor, r.gap, t.join(" | "));
+        let mut cells = vec![r.predictor.clone(), format!("{:.3e}", r.gap)];
+        cells.extend(r.terms.iter().map(|(_, v)| format!("{v:.3e}")));
+        t.push(cells);
     }
+    print!("{}", t.render());
     Ok(())
 }

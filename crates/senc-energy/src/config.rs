@@ -1,6 +1,6 @@
 //! The energy configuration: material, time step, forces, and the weight and switches of
 //! each term. Deserialised from TOML or JSON with unknown keys rejected; every field has a
-//! documented default, so an empty file is the issue-4 default configuration.
+//! documented default, so an empty file is the default configuration (HOOD's material).
 
 use serde::{Deserialize, Serialize};
 

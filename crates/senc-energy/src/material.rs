@@ -8,7 +8,7 @@ use crate::error::EnergyError;
 
 /// A thin-shell cloth material.
 ///
-/// Defaults (issue 4, HOOD): μ = 23600 Pa, λ = 44400 Pa, thickness 4.7e-4 m,
+/// Defaults (HOOD's): μ = 23600 Pa, λ = 44400 Pa, thickness 4.7e-4 m,
 /// k_b = 3.9626e-5 (J, the bending stiffness multiplying θ²), ρ = 0.20022 kg/m².
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -31,7 +31,7 @@ impl Default for Material {
     }
 }
 
-/// HOOD's sampling ranges for training (DESIGN.md section 3).
+/// HOOD's sampling ranges of the material for training.
 pub mod hood_ranges {
     /// μ, log-uniform, Pa.
     pub const MU: [f64; 2] = [15909.0, 63636.0];

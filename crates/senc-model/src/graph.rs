@@ -132,7 +132,7 @@ impl Default for GraphConfig {
     }
 }
 
-/// Material parameters of one garment (HOOD's parametrisation, DESIGN.md section 3).
+/// Material parameters of one garment (HOOD's parametrisation).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Material {
     /// Lamé μ (stretching), > 0.

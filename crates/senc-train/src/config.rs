@@ -1,6 +1,9 @@
 //! The training config: the `[train]`, `[model]`, `[energy]` and `[eval]` tables of a scene
 //! config file (the `[scene]` table belongs to senc-scene). Every key has a default, so a
 //! plain scene file trains with the defaults below. Unknown keys are refused, naming them.
+//! A file may extend another and change only what differs (`extends = "tshirt.toml"`, see
+//! [`senc_scene::config::ConfigDocument`]); `cargo xtask train --seed N --set key=value` changes
+//! the resolved config, and the run saves the result beside its checkpoints.
 //!
 //! ```toml
 //! [train]
@@ -19,6 +22,7 @@ use std::path::{Path, PathBuf};
 
 use senc_energy::EnergyConfig;
 use senc_model::{GraphConfig, ModelConfig, SelfEdges};
+use senc_scene::config::ConfigDocument;
 use serde::{Deserialize, Serialize};
 
 use crate::error::TrainError;
@@ -312,28 +316,35 @@ pub struct RunConfig {
     pub energy: EnergyConfig,
     /// `[eval]`.
     pub eval: EvalConfig,
+    /// Whether the file (with its `extends` chain) has a `[scene]` table of its own.
+    #[serde(default)]
+    pub has_scene: bool,
 }
 
-#[derive(Deserialize)]
-struct FileTables {
-    #[serde(default)]
-    train: Option<toml::Value>,
-    #[serde(default)]
-    model: Option<toml::Value>,
-    #[serde(default)]
-    energy: Option<toml::Value>,
-    #[serde(default)]
-    eval: Option<toml::Value>,
+/// The top-level tables of a run config; any other top-level key is refused.
+pub const TABLES: &[&str] = &["scene", "train", "model", "energy", "eval"];
+
+/// The dotted keys of a run config that hold file paths relative to the file.
+pub const PATH_KEYS: &[&str] =
+    &["scene.garment", "scene.body", "scene.motions.train", "scene.motions.test", "train.scenes"];
+
+/// A config document's error as senc-train's (a bad file, `extends` or override is a
+/// config error, not a scene error).
+fn config_error(e: senc_scene::SceneError) -> TrainError {
+    match e {
+        senc_scene::SceneError::Config { path, message } => TrainError::Config { path, message },
+        e => TrainError::Scene(e),
+    }
 }
 
 fn section<T: for<'de> Deserialize<'de> + Default>(
-    v: Option<toml::Value>,
+    table: &toml::Table,
     name: &str,
     path: &Path,
 ) -> Result<T, TrainError> {
-    match v {
+    match table.get(name) {
         None => Ok(T::default()),
-        Some(v) => v.try_into().map_err(|e: toml::de::Error| TrainError::Config {
+        Some(v) => v.clone().try_into().map_err(|e: toml::de::Error| TrainError::Config {
             path: path.to_path_buf(),
             message: format!("[{name}]: {e}"),
         }),
@@ -341,39 +352,92 @@ fn section<T: for<'de> Deserialize<'de> + Default>(
 }
 
 impl RunConfig {
-    /// Parses the tables of `text` (the file `path`).
+    /// Parses the tables of `text` (the file `path`; an `extends` in it is read relative to
+    /// `path`'s directory).
     pub fn parse(text: &str, path: &Path) -> Result<Self, TrainError> {
-        let tables: FileTables = toml::from_str(text)
-            .map_err(|e| TrainError::Config { path: path.to_path_buf(), message: e.to_string() })?;
+        Self::from_document(&ConfigDocument::parse(text, path, PATH_KEYS).map_err(config_error)?)
+    }
+
+    /// Reads a config file and the files it extends.
+    pub fn read(path: impl AsRef<Path>) -> Result<Self, TrainError> {
+        Self::from_document(&ConfigDocument::read(path.as_ref(), PATH_KEYS).map_err(config_error)?)
+    }
+
+    /// The config of a resolved document. Unknown top-level tables and unknown keys in
+    /// any table are refused, naming them; the `[scene]` table, if any, is checked too.
+    pub fn from_document(doc: &ConfigDocument) -> Result<Self, TrainError> {
+        let path = doc.path.as_path();
+        if let Some(k) = doc.table.keys().find(|k| !TABLES.contains(&k.as_str())) {
+            return Err(TrainError::Config {
+                path: path.to_path_buf(),
+                message: format!("unknown top-level key `{k}`; a config has the tables {}", TABLES.join(", ")),
+            });
+        }
+        let has_scene = doc.table.contains_key("scene");
+        if has_scene {
+            senc_scene::SceneConfig::from_document(doc)?;
+        }
         let cfg = Self {
             path: path.to_path_buf(),
-            train: section(tables.train, "train", path)?,
-            model: section(tables.model, "model", path)?,
-            energy: section(tables.energy, "energy", path)?,
-            eval: section(tables.eval, "eval", path)?,
+            train: section(&doc.table, "train", path)?,
+            model: section(&doc.table, "model", path)?,
+            energy: section(&doc.table, "energy", path)?,
+            eval: section(&doc.table, "eval", path)?,
+            has_scene,
         };
         cfg.validate()?;
         Ok(cfg)
     }
 
-    /// Reads a config file.
-    pub fn read(path: impl AsRef<Path>) -> Result<Self, TrainError> {
-        let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| TrainError::io(path, e))?;
-        Self::parse(&text, path)
+    /// The fully resolved document of the config file `path` (its `extends` chain merged),
+    /// with `[train] seed` replaced by `seed` if given and each `key=value` of `overrides`
+    /// applied in order (dotted keys, TOML values: `train.phase2_iterations=100`). The result
+    /// is checked as [`RunConfig::read`] checks a file, so an unknown key is refused here.
+    pub fn resolve(path: &Path, seed: Option<u64>, overrides: &[String]) -> Result<ConfigDocument, TrainError> {
+        let mut doc = ConfigDocument::read(path, PATH_KEYS).map_err(config_error)?;
+        if let Some(seed) = seed {
+            doc.set(&format!("train.seed={seed}")).map_err(config_error)?;
+        }
+        for o in overrides {
+            doc.set(o).map_err(config_error)?;
+        }
+        Self::from_document(&doc)?;
+        Ok(doc)
     }
 
-    /// The scene config files of this run: this file, then `[train] scenes`.
+    /// The method this config trains, by what it changes against SENC: "SENC" (volume
+    /// loss, self-collision edges without mesh edges), "baseline" (HOOD: neither),
+    /// "w/o self-col edges", "w. mesh edges", "w. area loss" or "repulsive" (the paper's
+    /// ablations), or a list of the deciding settings for any other mix. A seed other than
+    /// 0 is appended ("SENC, seed 1").
+    pub fn method_name(&self) -> String {
+        let e = &self.energy;
+        let on = |w: f64| w > 0.0;
+        let losses = (on(e.self_collision.weight), on(e.area_weight), on(e.repulsion.weight));
+        let name = match (losses, self.model.self_edges) {
+            ((true, false, false), SelfEdgeMode::ExcludeMesh) => "SENC".to_string(),
+            ((false, false, false), SelfEdgeMode::None) => "baseline".to_string(),
+            ((true, false, false), SelfEdgeMode::None) => "w/o self-col edges".to_string(),
+            ((true, false, false), SelfEdgeMode::KeepMesh) => "w. mesh edges".to_string(),
+            ((false, true, false), SelfEdgeMode::ExcludeMesh) => "w. area loss".to_string(),
+            ((false, false, true), SelfEdgeMode::ExcludeMesh) => "repulsive".to_string(),
+            (_, edges) => format!(
+                "volume {}, area {}, repulsion {}, self edges {edges:?}",
+                e.self_collision.weight, e.area_weight, e.repulsion.weight
+            ),
+        };
+        match self.train.seed {
+            0 => name,
+            s => format!("{name}, seed {s}"),
+        }
+    }
+
+    /// The scene config files of this run: this file if it has a `[scene]` table, then
+    /// `[train] scenes`.
     pub fn scene_files(&self) -> Vec<PathBuf> {
         let dir = self.path.parent().unwrap_or(Path::new("."));
-        let mut files = Vec::new();
-        if let Ok(text) = std::fs::read_to_string(&self.path) {
-            if text.lines().any(|l| l.trim() == "[scene]") {
-                files.push(self.path.clone());
-            }
-        }
-        files.extend(self.train.scenes.iter().map(|p| if p.is_relative() { dir.join(p) } else { p.clone() }));
-        files
+        let own = self.has_scene.then(|| self.path.clone());
+        own.into_iter().chain(self.train.scenes.iter().map(|p| dir.join(p))).collect()
     }
 
     /// Checks the values.
@@ -451,15 +515,87 @@ impl RunConfig {
 mod tests {
     use super::*;
 
+    const SCENE: &str = "[scene]\ngarment = \"g\"\nbody = \"b\"\n[scene.motions]\ntrain = [\"m\"]\n";
+
+    fn temp_dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("senc-run-config-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn resolve_applies_extends_seed_and_overrides_and_names_unknown_keys() {
+        let d = temp_dir("resolve");
+        std::fs::write(d.join("base.toml"), format!("{SCENE}[train]\nphase2_iterations = 50\n[model]\nlatent = 8\n"))
+            .unwrap();
+        let top = d.join("ablation.toml");
+        std::fs::write(&top, "extends = \"base.toml\"\n[model]\nself_edges = \"none\"\n").unwrap();
+        let sets = vec!["train.phase1_iterations=7".to_string(), "energy.self_collision.weight=0.0".to_string()];
+        let doc = RunConfig::resolve(&top, Some(3), &sets).unwrap();
+        let c = RunConfig::from_document(&doc).unwrap();
+        assert_eq!((c.train.seed, c.train.phase1_iterations, c.train.phase2_iterations), (3, 7, 50));
+        assert_eq!((c.model.latent, c.model.self_edges), (8, SelfEdgeMode::None));
+        assert_eq!(c.method_name(), "baseline, seed 3");
+        assert!(c.has_scene, "the scene comes from the base");
+        // the saved text parses back to the same config
+        let again = RunConfig::parse(&doc.to_toml(), &top).unwrap();
+        assert_eq!(again, c);
+        for (bad, named) in [
+            ("train.sede=1", "sede"),
+            ("trian.seed=1", "trian"),
+            ("scene.wind=3", "wind"),
+            ("model.self_edges=\"all\"", "all"),
+            ("train.seed=\"one\"", "seed"),
+            ("train.seed=one", "one"),
+        ] {
+            let e = RunConfig::resolve(&top, None, &[bad.to_string()]).unwrap_err().to_string();
+            assert!(e.contains(named), "{bad}: {e}");
+        }
+        let e = RunConfig::resolve(&d.join("missing.toml"), None, &[]).unwrap_err().to_string();
+        assert!(e.contains("missing.toml"), "{e}");
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn method_names_follow_the_deciding_settings() {
+        let mut c = RunConfig::parse(SCENE, Path::new("a.toml")).unwrap();
+        assert_eq!(c.method_name(), "SENC");
+        c.model.self_edges = SelfEdgeMode::KeepMesh;
+        assert_eq!(c.method_name(), "w. mesh edges");
+        c.model.self_edges = SelfEdgeMode::None;
+        assert_eq!(c.method_name(), "w/o self-col edges");
+        c.model.self_edges = SelfEdgeMode::ExcludeMesh;
+        c.energy.self_collision.weight = 0.0;
+        c.energy.area_weight = 1.0;
+        assert_eq!(c.method_name(), "w. area loss");
+        c.energy.area_weight = 0.0;
+        c.energy.repulsion.weight = 1e-3;
+        assert_eq!(c.method_name(), "repulsive");
+        c.energy.area_weight = 1.0;
+        c.train.seed = 2;
+        let mixed = c.method_name();
+        assert!(mixed.contains("area 1") && mixed.ends_with("seed 2"), "{mixed}");
+    }
+
     #[test]
     fn parses_tables_and_rejects_unknown_keys() {
-        let text = "[scene]\nx = 1\n[train]\nseed = 7\n[model]\nself_edges = \"none\"\n[energy.self_collision]\nweight = 0.0\n";
-        let c = RunConfig::parse(text, Path::new("a.toml")).unwrap();
+        let text = format!(
+            "{SCENE}[train]\nseed = 7\n[model]\nself_edges = \"none\"\n[energy.self_collision]\nweight = 0.0\n"
+        );
+        let c = RunConfig::parse(&text, Path::new("a.toml")).unwrap();
         assert_eq!(c.train.seed, 7);
         assert_eq!(c.model.self_edges, SelfEdgeMode::None);
         assert_eq!(c.energy.self_collision.weight, 0.0);
+        assert!(c.has_scene);
+        assert_eq!(c.scene_files(), vec![PathBuf::from("a.toml")]);
         let e = RunConfig::parse("[train]\nsede = 1\n", Path::new("a.toml")).unwrap_err();
         assert!(e.to_string().contains("sede"), "{e}");
+        // unknown top-level tables and unknown keys of the scene are named too
+        let e = RunConfig::parse("[trian]\nseed = 1\n", Path::new("a.toml")).unwrap_err();
+        assert!(e.to_string().contains("trian"), "{e}");
+        let e = RunConfig::parse(&format!("{SCENE}wind = 3\n"), Path::new("a.toml")).unwrap_err();
+        assert!(e.to_string().contains("wind"), "{e}");
     }
 
     #[test]

@@ -272,7 +272,8 @@ impl Trainer {
     /// A fresh trainer for the config file `config_path`, writing into `out`.
     pub fn new(config_path: &Path, out: &Path) -> Result<Self, TrainError> {
         let config = RunConfig::read(config_path)?;
-        let config_text = std::fs::read_to_string(config_path).map_err(|e| TrainError::io(config_path, e))?;
+        // The resolved config (its `extends` chain merged) is what the checkpoints keep.
+        let config_text = RunConfig::resolve(config_path, None, &[])?.to_toml();
         let garments = Self::load_garments(&config)?;
         let device = Device::flex().autodiff();
         let mut model =

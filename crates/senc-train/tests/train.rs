@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use senc_model::burn::tensor::Device;
 use senc_model::Model;
 use senc_train::clip::flat_params;
-use senc_train::eval::{evaluate, write_reports, Method};
-use senc_train::Trainer;
+use senc_train::eval::{evaluate, evaluate_solver, first_scene, training_config, write_reports, Method};
+use senc_train::{RunConfig, Trainer};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -99,11 +99,65 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     // Newton with a line search from the better of the network's answer and the inertial
     // target cannot end above the network's answer.
     assert!(refined.energy_gap <= net.energy_gap + 1e-9, "{} > {}", refined.energy_gap, net.energy_gap);
+    // The row is named by the method the checkpoint was trained as (smoke.toml: seed 1).
+    assert_eq!(row.method, "SENC, seed 1");
+    assert_eq!(row.rise_30_cm, None, "4 frames are fewer than 30");
+    // The reference solver's row on the same garment and motions.
+    let solver = evaluate_solver(&m).unwrap();
+    assert_eq!(
+        (solver.method.as_str(), solver.frames, solver.garment.as_str()),
+        ("reference solver", 4, row.garment.as_str())
+    );
+    assert!(solver.fps > 0.0 && solver.volume_cm3.is_finite() && solver.departure_cm.is_finite());
     let out = d.join("reports");
-    write_reports(&out, &[row], &curve, "test").unwrap();
+    write_reports(&out, &[row, solver], &curve, "test").unwrap();
     for f in ["table1.md", "table1.csv", "table1.json", "runtime.md", "runtime.csv", "runtime.svg"] {
         assert!(out.join(f).exists(), "{f}");
     }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("table1.json")).unwrap()).unwrap();
+    for field in ["method", "volume_cm3", "departure_cm", "rise_30_cm", "fps"] {
+        assert!(json[1].get(field).is_some(), "table1.json lacks {field}");
+    }
+    let csv = std::fs::read_to_string(out.join("table1.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+    assert!(csv.starts_with("method,garment,frames,volume_cm3,") && csv.contains("\nreference solver,"), "{csv}");
+    let md = std::fs::read_to_string(out.join("table1.md")).unwrap();
+    assert!(md.contains("| SENC, seed 1 |") && md.contains("| reference solver |"), "{md}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// `train --seed --set` in library terms: a config extending the smoke config, resolved with
+/// overrides and saved as the run's `config.toml` (paths rewritten relative to the run),
+/// trains with the overridden values, and its checkpoints give back that config.
+#[test]
+fn a_resolved_config_with_overrides_trains_and_travels_with_the_checkpoint() {
+    let d = tmp("resolved");
+    let smoke = root().join("configs/smoke.toml").canonicalize().unwrap();
+    let overlay = d.join("overlay.toml");
+    let text = format!(
+        "extends = {:?}\n[train]\nwarmup_iterations = 2\ncheckpoint_every = 2\nrollout_growth = 2\n",
+        smoke.to_str().unwrap()
+    );
+    std::fs::write(&overlay, text).unwrap();
+    let sets = ["train.phase1_iterations=2".to_string(), "train.phase2_iterations=1".to_string()];
+    let doc = RunConfig::resolve(&overlay, Some(5), &sets).unwrap();
+    let out = d.join("run");
+    std::fs::create_dir_all(&out).unwrap();
+    let resolved = doc.moved_to(&out.join("config.toml"), senc_train::config::PATH_KEYS);
+    let saved_text = resolved.to_toml();
+    assert!(!saved_text.contains("extends") && saved_text.contains("[scene]"), "{saved_text}");
+    std::fs::write(&resolved.path, &saved_text).unwrap();
+    let mut t = Trainer::new(&resolved.path, &out).unwrap();
+    let tc = &t.config.train;
+    assert_eq!((tc.seed, tc.warmup_iterations, tc.phase1_iterations, tc.phase2_iterations), (5, 2, 2, 1));
+    t.run(None, |_| {}).unwrap();
+    assert!(t.finished());
+    let saved = training_config(&out.join("phase2")).unwrap();
+    assert_eq!(saved.train, t.config.train);
+    assert_eq!(saved.method_name(), "SENC, seed 5");
+    let g = senc_train::Garment::load(&first_scene(&saved).unwrap(), saved.train.body_margin).unwrap();
+    assert!(!g.scene.test.is_empty());
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -377,35 +431,61 @@ fn rescaled_velocity_is_the_same_velocity() {
     }
 }
 
-/// Every committed run config (configs/ and configs/experiments/) parses, validates and
-/// names scene files that exist, so configs cannot silently rot as keys change.
+/// Every config in configs/ parses, resolves its `extends`, validates and names scene files
+/// that exist, so configs cannot silently rot as keys change; each ablation extends its
+/// garment's config and trains the method its name says.
 #[test]
 fn every_committed_config_parses() {
     let mut files = Vec::new();
-    for dir in ["configs", "configs/experiments"] {
-        for e in std::fs::read_dir(root().join(dir)).unwrap() {
-            let p = e.unwrap().path();
-            if p.extension().is_some_and(|x| x == "toml") {
-                files.push(p);
-            }
+    for e in std::fs::read_dir(root().join("configs")).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "toml") {
+            files.push(p);
         }
     }
-    assert!(files.len() > 20, "found only {} configs", files.len());
-    for p in files {
-        let cfg = senc_train::RunConfig::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    assert!(files.iter().any(|p| p.ends_with("tshirt.toml")), "configs/ has no tshirt.toml");
+    for p in &files {
+        let cfg = RunConfig::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
         let scenes = cfg.scene_files();
         assert!(!scenes.is_empty(), "{}: no [scene] and no [train] scenes", p.display());
         for s in scenes {
             assert!(s.is_file(), "{}: scene file {} is missing", p.display(), s.display());
+            senc_scene::SceneConfig::read(&s).unwrap_or_else(|e| panic!("{}: {e}", s.display()));
+        }
+    }
+    let method = |name: &str| RunConfig::read(root().join("configs").join(name)).unwrap().method_name();
+    for garment in ["tshirt", "skirt"] {
+        for (suffix, name) in [
+            ("", "SENC"),
+            ("-baseline", "baseline"),
+            ("-no-selfcol-edges", "w/o self-col edges"),
+            ("-mesh-edges", "w. mesh edges"),
+            ("-area", "w. area loss"),
+            ("-repulsive", "repulsive"),
+            ("-eval-quick", "SENC"),
+        ] {
+            let file = format!("{garment}{suffix}.toml");
+            assert_eq!(method(&file), name, "{file}");
+            if !suffix.is_empty() {
+                let text = std::fs::read_to_string(root().join("configs").join(&file)).unwrap();
+                assert!(text.contains(&format!("extends = \"{garment}.toml\"")), "{file} copies instead of extending");
+                // An overlay changes what it names and inherits the rest, [train] included.
+                let (a, b) = (RunConfig::read(root().join("configs").join(&file)).unwrap(), method_cfg(garment));
+                assert_eq!(a.train, b.train, "{file}: [train] differs from {garment}.toml");
+            }
         }
     }
 }
 
+fn method_cfg(garment: &str) -> RunConfig {
+    RunConfig::read(root().join("configs").join(format!("{garment}.toml"))).unwrap()
+}
+
 /// The networks committed in `checkpoints/` still load with the current code and give the
 /// rollout they gave when they were committed: mean cloth displacement from the start after
-/// three frames of the first test motion, to 1 mm (session 9's values; the seed-1 t-shirts
-/// session 10's). A change to the
-/// checkpoint format, the features, the graph or the network that silently changes what a
+/// three frames of the first test motion, to 1 mm (the values recorded when they were
+/// committed). Each checkpoint is self-contained: its `config.toml` is the resolved
+/// training config, with paths relative to the checkpoint. A change to the checkpoint format, the features, the graph or the network that silently changes what a
 /// trained checkpoint computes fails here; retrain the checkpoints (`checkpoints/README.md`)
 /// and update the values then.
 #[test]
@@ -431,9 +511,12 @@ fn committed_checkpoints_load_and_give_their_recorded_rollout() {
     assert_eq!(found, expected.iter().map(|(n, _)| n.to_string()).collect::<Vec<_>>());
     for (name, want) in expected {
         let dir = root().join("checkpoints").join(name);
-        let source = std::fs::read_to_string(dir.join("source.txt")).unwrap();
-        let cfg = senc_train::RunConfig::read(root().join(source.trim())).unwrap();
-        let g = Garment::load(&senc_train::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
+        let cfg = training_config(&dir).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(cfg.scene_files(), vec![dir.join("config.toml")], "{name} is not self-contained");
+        let method = if name.contains("baseline") { "baseline" } else { "SENC" };
+        let seed = if name.ends_with("seed1") { ", seed 1" } else { "" };
+        assert_eq!(cfg.method_name(), format!("{method}{seed}"), "{name}");
+        let g = Garment::load(&first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
         let model = Model::load(&dir, &Device::flex()).unwrap();
         let material = scene_material(&g).unwrap();
         let r = rollout(&model, &g, &g.scene.test[0], 3, senc_geom::Vec3::zeros(), &material).unwrap();

@@ -1,0 +1,217 @@
+//! The paper's Table 1 on the test motions: one [`Row`] per method and garment, for a
+//! network (alone or refined, [`evaluate`]) and for the reference solver
+//! ([`evaluate_solver`]).
+//!
+//! Per test frame (frames 1.. of each rollout): the penetration volume V (m³) of the
+//! garment after closing the scene's holes (senc-gia), `L_self-col = 100 · |6V|`, the share
+//! of cloth vertices inside the full body, and the distance from the linearly skinned
+//! garment. Speed is graph building plus network (plus the refinement), or the solver.
+
+use senc_energy::EnergyConfig;
+use senc_geom::{close_holes, Closure, Vec3};
+use senc_gia::{GiaOptions, GiaWorkspace};
+use senc_model::burn::tensor::Device;
+use senc_model::Model;
+use senc_scene::{BodyQuery, Motion};
+use serde::Serialize;
+
+use super::method::{Method, SOLVER_LABEL};
+use super::runtime::{error_vs_runtime, CurvePoint};
+use crate::config::RunConfig;
+use crate::error::TrainError;
+use crate::garment::Garment;
+use crate::rollout::{network_rollout, solver_rollout, Refine, Rollout};
+use crate::trainer::scene_material;
+
+/// The frame after which [`Row::rise_30_cm`] is measured.
+pub const RISE_FRAME: usize = 30;
+
+/// Table-1 metrics of one method on one garment.
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    /// Method label.
+    pub method: String,
+    /// Garment name.
+    pub garment: String,
+    /// Test frames evaluated.
+    pub frames: usize,
+    /// Mean penetration volume, cm³.
+    pub volume_cm3: f64,
+    /// Mean `L_self-col = 100 · |6V|` (V in m³).
+    pub l_selfcol: f64,
+    /// Percentage of frames with `L_self-col > 0.1`.
+    pub pct_above_0_1: f64,
+    /// Percentage of frames with `L_self-col > 0.01`.
+    pub pct_above_0_01: f64,
+    /// Mean share of cloth vertices inside the body, %.
+    pub body_penetration_pct: f64,
+    /// Mean distance of the cloth vertices from the linearly skinned garment, cm, over the
+    /// test frames: how far the simulated garment has left the body-following one. A few cm
+    /// is cloth dynamics (a skirt swings); tens of cm mean the rollout has drifted off the
+    /// body, and its volumes describe no plausible garment.
+    pub departure_cm: f64,
+    /// Mean vertical displacement of the cloth vertices from the skinned garment at frame
+    /// [`RISE_FRAME`], cm, averaged over the test motions (positive: above it). A garment
+    /// hanging on the body sags a little (negative); one blown off it rises. `None` when the
+    /// rollouts are shorter.
+    pub rise_30_cm: Option<f64>,
+    /// Frames per second (graph + network, and the refinement for a refined method; the
+    /// solver for the reference solver).
+    pub fps: f64,
+    /// Share of frames whose refinement started from the inertial target because the
+    /// network's answer had the higher energy, %; 0 without refinement.
+    pub rejected_pct: f64,
+}
+
+/// Penetration volumes of garment states.
+pub struct VolumeMeter {
+    closure: Closure,
+    ws: GiaWorkspace,
+    options: GiaOptions,
+}
+
+impl VolumeMeter {
+    /// For the garment's closure (the scene's holes closed).
+    pub fn new(g: &Garment) -> Result<Self, TrainError> {
+        let closure = close_holes(&g.rest, &g.scene.hole_selection()?)?;
+        let ws = GiaWorkspace::new(&closure);
+        Ok(Self { closure, ws, options: GiaOptions::default() })
+    }
+
+    /// Penetration volume of `x`, m³.
+    pub fn volume(&mut self, x: &[Vec3]) -> Result<f64, TrainError> {
+        self.closure.update(x)?;
+        Ok(self.ws.penetration(&self.closure, &self.options)?.volume)
+    }
+}
+
+/// Mean Euclidean distance between corresponding points, in the points' unit (0 for none).
+fn mean_distance(a: &[Vec3], b: &[Vec3]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| (p - q).norm()).sum::<f64>() / a.len().min(b.len()).max(1) as f64
+}
+
+/// Mean of `a.y − b.y` over corresponding points (0 for none).
+fn mean_rise(a: &[Vec3], b: &[Vec3]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| p.y - q.y).sum::<f64>() / a.len().min(b.len()).max(1) as f64
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// The Table-1 row of rollouts `rollouts` (one per test motion, in `g.scene.test` order).
+fn row(label: &str, g: &Garment, rollouts: &[Rollout], meter: &mut VolumeMeter) -> Result<Row, TrainError> {
+    let (mut vols, mut body_pct, mut departure, mut rise) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (motion, r) in g.scene.test.iter().zip(rollouts) {
+        for (f, x) in r.cloth.iter().enumerate().skip(1) {
+            vols.push(meter.volume(x)?);
+            let body = g.scene.body_at(motion, f)?;
+            let q = BodyQuery::new(&body, &g.scene.body.faces)?;
+            body_pct.push(100.0 * q.inside(x).len() as f64 / x.len() as f64);
+            let skinned = g.skinned_at(motion, f)?;
+            departure.push(mean_distance(x, &skinned));
+            if f == RISE_FRAME {
+                rise.push(mean_rise(x, &skinned));
+            }
+        }
+    }
+    let (secs, steps) = rollouts.iter().fold((0.0, 0), |(s, n), r| (s + r.infer_seconds, n + r.steps));
+    let rejected = rollouts.iter().map(|r| r.refined.iter().filter(|f| f.rejected).count()).sum::<usize>();
+    let ls: Vec<f64> = vols.iter().map(|v| 100.0 * 6.0 * v).collect();
+    let share = |t: f64| 100.0 * ls.iter().filter(|&&l| l > t).count() as f64 / ls.len().max(1) as f64;
+    Ok(Row {
+        method: label.to_string(),
+        garment: g.name().to_string(),
+        frames: vols.len(),
+        volume_cm3: mean(&vols) * 1e6,
+        l_selfcol: mean(&ls),
+        pct_above_0_1: share(0.1),
+        pct_above_0_01: share(0.01),
+        body_penetration_pct: mean(&body_pct),
+        departure_cm: mean(&departure) * 100.0,
+        rise_30_cm: (rise.len() == rollouts.len()).then(|| mean(&rise) * 100.0),
+        fps: if secs > 0.0 { steps as f64 / secs } else { f64::NAN },
+        rejected_pct: 100.0 * rejected as f64 / steps.max(1) as f64,
+    })
+}
+
+/// What every row needs: the config, its garment (with test motions), the phase-2 energy
+/// with the scene's material and force, and a volume meter.
+struct Setup {
+    cfg: RunConfig,
+    g: Garment,
+    energy: EnergyConfig,
+    meter: VolumeMeter,
+}
+
+impl Setup {
+    fn new(method: &Method) -> Result<Self, TrainError> {
+        let cfg = RunConfig::read(&method.config)?;
+        let g = method.load_garment(&cfg)?;
+        if g.scene.test.is_empty() {
+            return Err(TrainError::Invalid(format!(
+                "{}: no test motions in [scene.motions] test",
+                cfg.path.display()
+            )));
+        }
+        let energy = cfg.energy_for(2, scene_material(&g)?, g.scene.config.external_force.acceleration);
+        let meter = VolumeMeter::new(&g)?;
+        Ok(Self { cfg, g, energy, meter })
+    }
+
+    /// One rollout per test motion, in order.
+    fn roll(&self, f: impl Fn(&Motion) -> Result<Rollout, TrainError>) -> Result<Vec<Rollout>, TrainError> {
+        self.g.scene.test.iter().map(f).collect()
+    }
+}
+
+/// Evaluates one method: its Table-1 row and the network's error-against-run-time points.
+pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
+    let mut s = Setup::new(method)?;
+    let model = Model::load(&method.checkpoint, &Device::flex())?;
+    let material = scene_material(&s.g)?;
+    let ext = Vec3::from(s.g.scene.config.external_force.acceleration);
+    let rollouts = s.roll(|motion| {
+        let refine = Some(Refine { energy: &s.energy, iterations: method.refine });
+        network_rollout(&model, &s.g, motion, s.cfg.eval.frames, ext, &material, refine)
+    })?;
+    let row = row(&method.label, &s.g, &rollouts, &mut s.meter)?;
+    let curve = match method.curve {
+        true => error_vs_runtime(method, &s.cfg, &s.g, &model, &rollouts[0], &mut s.meter)?,
+        false => Vec::new(),
+    };
+    Ok((row, curve))
+}
+
+/// The reference solver's Table-1 row on `method`'s garment and config (its checkpoint is
+/// not used): each frame solved by Newton from the solver's own previous frames, at most
+/// `[eval] converged_iterations` iterations (the converged reference of the
+/// error-against-run-time curve), on the phase-2 energy.
+pub fn evaluate_solver(method: &Method) -> Result<Row, TrainError> {
+    let mut s = Setup::new(method)?;
+    let (frames, iterations) = (s.cfg.eval.frames, s.cfg.eval.converged_iterations);
+    let rollouts = s.roll(|motion| solver_rollout(&s.g, motion, frames, &s.energy, iterations))?;
+    row(SOLVER_LABEL, &s.g, &rollouts, &mut s.meter)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mean_distance_averages_point_offsets() {
+        let a = [Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0)];
+        let b = [Vec3::new(0.0, 3.0, 4.0), Vec3::new(1.0, 0.0, 1.0)];
+        assert!((mean_distance(&a, &b) - 3.0).abs() < 1e-12);
+        assert_eq!(mean_distance(&[], &[]), 0.0);
+    }
+
+    #[test]
+    fn mean_rise_is_signed_and_vertical() {
+        let a = [Vec3::new(5.0, 1.0, 0.0), Vec3::new(0.0, -2.0, 9.0)];
+        let b = [Vec3::zeros(), Vec3::zeros()];
+        assert!((mean_rise(&a, &b) + 0.5).abs() < 1e-12);
+        assert!((mean_rise(&b, &a) - 0.5).abs() < 1e-12);
+        assert_eq!(mean_rise(&[], &[]), 0.0);
+    }
+}
