@@ -192,10 +192,18 @@ pub fn retarget_clip(
         return Err(SceneError::Bvh { path: path.to_owned(), line: 0, message: "the clip has no frames".into() });
     }
     let beside = JointMap::beside(path);
-    let map = match (map, &beside) {
-        (Some(m), _) => m.clone(),
-        (None, Some(file)) => JointMap::read(file)?,
-        (None, None) => {
+    let given = match (map, &beside) {
+        (Some(m), _) => Some(m.clone()),
+        (None, Some(file)) => Some(JointMap::read(file)?),
+        (None, None) => None,
+    };
+    if let Some(m) = &given {
+        m.check(&bvh, skeleton)?;
+    }
+    let map = match given {
+        Some(m) => m,
+        None => {
+            // Built-in tables list joints a clip may have; they are not checked.
             let driven = |m: &JointMap| m.sources(&bvh, skeleton).iter().filter(|s| s.is_some()).count();
             let all = JointMap::builtin();
             let complete = all.iter().filter(|m| m.missing(&bvh, skeleton).is_empty()).max_by_key(|m| {
@@ -212,7 +220,6 @@ pub fn retarget_clip(
             }
         }
     };
-    map.check(&bvh, skeleton)?;
     let missing = map.missing(&bvh, skeleton);
     if !missing.is_empty() {
         let stem = path.file_stem().map_or("clip".into(), |s| s.to_string_lossy().into_owned());
@@ -291,10 +298,16 @@ pub fn motion_path(given: &Path, body: &Path, scene: &[String]) -> Result<PathBu
     })
 }
 
-/// Prepares a motion for a scene: resampled to `config.fps`, turned to the rest heading when
+/// Prepares a motion for a scene: resampled to `config.fps` (a clip within 0.01% of it is
+/// taken as is), turned to the rest heading when
 /// `config.align_heading`, and led in from the rest pose over `config.lead_in_frames`.
 pub fn prepare(m: Motion, config: &SceneConfig) -> Result<Motion, SceneError> {
-    let m = if (m.fps - config.fps).abs() > 1e-9 { m.resample(config.fps)? } else { m };
+    // Files round the frame time (0.033333 s): rates within 0.01% count as equal.
+    let m = if (m.fps - config.fps).abs() > 1e-4 * config.fps {
+        m.resample(config.fps)?
+    } else {
+        Motion { fps: config.fps, ..m }
+    };
     let m = if config.align_heading { m.aligned_to_rest_heading() } else { m };
     m.with_lead_in(config.lead_in_frames)
 }
