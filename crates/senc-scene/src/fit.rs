@@ -43,6 +43,7 @@ impl Default for FitOptions {
 }
 
 /// What fitting did, for the log.
+#[derive(Debug, Clone, PartialEq)]
 pub struct FitReport {
     /// What the mesh repair changed.
     pub repair: RepairReport,
