@@ -160,7 +160,7 @@ fn diagonal(points: impl Iterator<Item = Vec3>) -> f64 {
 /// For each vertex its representative: the first vertex (in index order) within `tol`.
 fn weld(positions: &[Vec3], used: &[bool], tol: f64) -> Vec<u32> {
     let mut rep: Vec<u32> = (0..positions.len() as u32).collect();
-    if !(tol > 0.0) {
+    if tol.is_nan() || tol <= 0.0 {
         return rep;
     }
     let cell = |p: &Vec3| -> [i64; 3] { [p.x, p.y, p.z].map(|c| (c / tol).floor() as i64) };

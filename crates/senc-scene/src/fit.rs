@@ -62,13 +62,16 @@ pub struct FitReport {
     pub quality: (f64, f64),
 }
 
+/// What [`clean`] did: (collapses, flips) and the worst quality (before, after).
+type Cleaned = ((usize, usize), (f64, f64));
+
 /// Removes slivers (`senc_geom::remesh::improve`, default settings), carrying the weights
 /// along. Returns the operations done and the worst quality before and after.
 fn clean(
     positions: &mut Vec<Vec3>,
     faces: &mut Vec<[u32; 3]>,
     weights: Option<&mut WeightLists>,
-) -> Result<((usize, usize), (f64, f64)), SceneError> {
+) -> Result<Cleaned, SceneError> {
     let mesh = TriMesh::new(positions.clone(), faces.clone())?;
     let r = senc_geom::remesh::improve(&mesh, &senc_geom::remesh::RemeshConfig::default())?;
     if let Some(w) = weights {
