@@ -58,28 +58,6 @@ pub const REQUIRED_BONES: &[&str] = &[
 /// the spine.
 const MIXAMO_TO_CMU_MB: &[(&str, &str)] = &[("LowerBack", "Spine"), ("Spine", "Spine1"), ("Spine1", "Spine2")];
 
-/// MocapBank's Biovision-style skeleton (`Chest`, `Chest2`, `LeftCollar`, `LeftHip`, ...).
-const MOCAPBANK_TO_CMU_MB: &[(&str, &str)] = &[
-    ("Hips", "Hips"),
-    ("LowerBack", "Chest"),
-    ("Spine1", "Chest2"),
-    ("Neck", "Neck"),
-    ("Head", "Head"),
-    ("LeftShoulder", "LeftCollar"),
-    ("LeftArm", "LeftShoulder"),
-    ("LeftForeArm", "LeftElbow"),
-    ("LeftHand", "LeftWrist"),
-    ("RightShoulder", "RightCollar"),
-    ("RightArm", "RightShoulder"),
-    ("RightForeArm", "RightElbow"),
-    ("RightHand", "RightWrist"),
-    ("LeftUpLeg", "LeftHip"),
-    ("LeftLeg", "LeftKnee"),
-    ("LeftFoot", "LeftAnkle"),
-    ("RightUpLeg", "RightHip"),
-    ("RightLeg", "RightKnee"),
-    ("RightFoot", "RightAnkle"),
-];
 
 /// Which clip joint drives which body bone.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -110,11 +88,22 @@ impl JointMap {
     /// The built-in maps, tried in this order: `cmu` (CMU names, as the rig's), `mixamo`,
     /// `biovision-boxing` (assimp's Boxing_Toes skeleton), `mocapbank`.
     pub fn builtin() -> Vec<Self> {
+        // MocapBank's Biovision-style skeleton is the boxing one with `Chest`, `Chest2` for
+        // `Ab`, `Chest`, and without toes.
+        let mocapbank: Vec<(&str, &str)> = BOXING_TO_CMU_MB
+            .iter()
+            .filter(|(bone, _)| !bone.ends_with("ToeBase"))
+            .map(|&(bone, joint)| match bone {
+                "LowerBack" => (bone, "Chest"),
+                "Spine1" => (bone, "Chest2"),
+                _ => (bone, joint),
+            })
+            .collect();
         vec![
             Self::from_table("cmu", CMU_TO_CMU_MB, true),
             Self::from_table("mixamo", MIXAMO_TO_CMU_MB, true),
             Self::from_table("biovision-boxing", BOXING_TO_CMU_MB, false),
-            Self::from_table("mocapbank", MOCAPBANK_TO_CMU_MB, false),
+            Self::from_table("mocapbank", &mocapbank, false),
         ]
     }
 
