@@ -58,7 +58,6 @@ pub const REQUIRED_BONES: &[&str] = &[
 /// the spine.
 const MIXAMO_TO_CMU_MB: &[(&str, &str)] = &[("LowerBack", "Spine"), ("Spine", "Spine1"), ("Spine1", "Spine2")];
 
-
 /// Which clip joint drives which body bone.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct JointMap {

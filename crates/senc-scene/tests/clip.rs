@@ -132,6 +132,7 @@ fn a_clip_played_three_times_faster_resamples_to_a_third() {
         }
         assert!((a.root_translation - b.root_translation).norm() < 1e-3);
     }
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The mocapbank clip with its header changed by `edit`, parsed.
@@ -271,6 +272,7 @@ fn unknown_skeletons_name_the_undriven_bones_and_a_map_file_fixes_them() {
     let explicit = JointMap::parse(&format!("[joints]\n{map}"), Path::new("explicit")).unwrap();
     let bvh = Bvh::read(&path).unwrap();
     assert_eq!(retarget_clip(&bvh, &path, &body.skeleton, Some(&explicit)).unwrap().rotations, reference.rotations);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -287,6 +289,7 @@ fn files_that_are_not_clips_are_refused() {
     assert!(e.to_string().contains("no frames"), "{e}");
     std::fs::write(dir.join("empty.bvh"), "").unwrap();
     assert!(matches!(read_motion(&p, &body.skeleton), Err(SceneError::Bvh { .. })));
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -340,4 +343,5 @@ fn scene_motions_are_names_or_files() {
     std::fs::write(&path, toml::to_string(&table).unwrap()).unwrap();
     let r = Scene::load(&path);
     assert!(matches!(&r, Err(SceneError::NoSuchMotion { name, .. }) if name.ends_with("cmu_99_99")), "{r:?}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -119,6 +119,7 @@ fn a_broken_export_is_repaired_and_fits_as_the_clean_file_does() {
     assert!(gap < 1e-9, "repaired and clean fits differ by {gap} m");
     assert_eq!(fixed.faces.len(), clean.faces.len());
     assert!(rep.min_distance >= 0.99 * in_place().margin, "{}", rep.min_distance);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -173,6 +174,7 @@ fn several_garments_in_one_file_are_picked_by_name_by_size_or_each() {
     assert_eq!(Select::from_arg(Path::new("outfit.obj#each")).1, Select::Each);
     assert_eq!(Select::from_arg(Path::new("outfit.obj#largest")).1, Select::Largest);
     assert_eq!(Select::from_arg(&path), (path.clone(), Select::All));
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -226,4 +228,5 @@ fn what_cannot_be_repaired_is_refused_with_the_reason() {
     // A missing file.
     let e = fit_obj(&dir.join("none.obj"), &Select::All, 1.0, &body, &in_place()).unwrap_err();
     assert!(e.to_string().contains("none.obj"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
