@@ -219,6 +219,7 @@ pub fn retarget_clip(
             map_hint: format!("{stem}.joints.toml or joints.toml"),
         });
     }
+    check_rest_pose(&bvh, path, &map.sources(&bvh, skeleton), skeleton)?;
     let name = path.file_stem().map_or("clip".into(), |s| s.to_string_lossy().into_owned());
     let m = retarget(&bvh, skeleton, &map.table(), map.same_names, &name)?;
     if m.rotations.iter().flatten().chain(m.root_translation.iter().flatten()).any(|x| !x.is_finite()) {
@@ -229,6 +230,36 @@ pub fn retarget_clip(
         });
     }
     Ok(m)
+}
+
+/// Retargeting compares directions with the clip's all-angles-zero pose, so that pose must
+/// stand as the body's rest pose does: Y up (hips to head within 45° of +y) and facing +z
+/// (right hip to left hip within 45° of +x). Clips from tools whose zero pose lies, faces
+/// sideways or is Z-up are refused rather than retargeted wrongly.
+fn check_rest_pose(bvh: &Bvh, path: &Path, src: &[Option<usize>], skeleton: &Skeleton) -> Result<(), SceneError> {
+    let mut rest: Vec<senc_geom::Vec3> = Vec::with_capacity(bvh.joints.len());
+    for j in &bvh.joints {
+        let base = j.parent.map_or(senc_geom::Vec3::zeros(), |p| rest[p]);
+        rest.push(base + j.offset);
+    }
+    let at = |bone: &str| skeleton.find(bone).and_then(|b| src[b]).map(|s| rest[s]);
+    let (Some(hips), Some(head), Some(left), Some(right)) = (at("Hips"), at("Head"), at("LeftUpLeg"), at("RightUpLeg"))
+    else {
+        return Ok(());
+    };
+    let (up, side) = (head - hips, left - right);
+    let cos45 = std::f64::consts::FRAC_1_SQRT_2;
+    if up.normalize().y < cos45 || side.normalize().x < cos45 || !up.iter().chain(side.iter()).all(|c| c.is_finite()) {
+        return Err(SceneError::Bvh {
+            path: path.to_owned(),
+            line: 0,
+            message: format!(
+                "the clip's zero pose does not stand Y-up facing +z (hips to head ({:.2}, {:.2}, {:.2}), right to left hip ({:.2}, {:.2}, {:.2})); retargeting needs the zero pose upright, as CMU, Mixamo and Biovision files have it: re-export the clip with a T-pose or A-pose rest",
+                up.x, up.y, up.z, side.x, side.y, side.z
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// Reads a motion file for `skeleton`: a `.bvh` clip (retargeted, see the module doc) or a

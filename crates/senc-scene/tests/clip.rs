@@ -276,6 +276,30 @@ fn unknown_skeletons_name_the_undriven_bones_and_a_map_file_fixes_them() {
 }
 
 #[test]
+fn clips_whose_zero_pose_does_not_stand_upright_are_refused() {
+    let body = body();
+    let dir = scratch("zup");
+    // The MocapBank clip with every offset turned 90° about x, (y, z) -> (-z, y), as a Z-up
+    // exporter writes it: its zero pose lies along +z.
+    let text = std::fs::read_to_string(clip("mocapbank_150.bvh")).unwrap();
+    let turned: Vec<String> = text
+        .lines()
+        .map(|l| match l.trim_start().strip_prefix("OFFSET") {
+            Some(rest) => {
+                let v: Vec<f64> = rest.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                format!("OFFSET {} {} {}", v[0], -v[2], v[1])
+            }
+            None => l.to_string(),
+        })
+        .collect();
+    let p = dir.join("zup.bvh");
+    std::fs::write(&p, turned.join("\n")).unwrap();
+    let e = read_motion(&p, &body.skeleton).unwrap_err();
+    assert!(matches!(e, SceneError::Bvh { .. }) && e.to_string().contains("does not stand Y-up"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn files_that_are_not_clips_are_refused() {
     let body = body();
     let e = read_motion(Path::new("/nonexistent/walk.bvh"), &body.skeleton).unwrap_err();
