@@ -259,9 +259,8 @@ impl Bvh {
         }
         for (k, j) in self.joints.iter().enumerate() {
             if self.joints[..k].iter().any(|o| o.name == j.name) {
-                return Err(SceneError::Bvh {
+                return Err(SceneError::Clip {
                     path: path.to_owned(),
-                    line: 0,
                     message: format!("two joints are called {}", j.name),
                 });
             }

@@ -177,7 +177,7 @@ pub fn retarget_clip(
     let mut bvh = bvh.clone();
     bvh.strip_namespaces(path)?;
     if bvh.frames.is_empty() {
-        return Err(SceneError::Bvh { path: path.to_owned(), line: 0, message: "the clip has no frames".into() });
+        return Err(SceneError::Clip { path: path.to_owned(), message: "the clip has no frames".into() });
     }
     let beside = JointMap::beside(path);
     let given = match (map, &beside) {
@@ -223,9 +223,8 @@ pub fn retarget_clip(
     let name = path.file_stem().map_or("clip".into(), |s| s.to_string_lossy().into_owned());
     let m = retarget(&bvh, skeleton, &map.table(), map.same_names, &name)?;
     if m.rotations.iter().flatten().chain(m.root_translation.iter().flatten()).any(|x| !x.is_finite()) {
-        return Err(SceneError::Bvh {
+        return Err(SceneError::Clip {
             path: path.to_owned(),
-            line: 0,
             message: "retargeting gave non-finite values (are the joint offsets degenerate?)".into(),
         });
     }
@@ -250,10 +249,7 @@ fn check_rest_pose(bvh: &Bvh, path: &Path, src: &[Option<usize>], skeleton: &Ske
     let (up, side) = (head - hips, left - right);
     let cos45 = std::f64::consts::FRAC_1_SQRT_2;
     if up.normalize().y < cos45 || side.normalize().x < cos45 || !up.iter().chain(side.iter()).all(|c| c.is_finite()) {
-        return Err(SceneError::Bvh {
-            path: path.to_owned(),
-            line: 0,
-            message: format!(
+        return Err(SceneError::Clip { path: path.to_owned(), message: format!(
                 "the clip's zero pose does not stand Y-up facing +z (hips to head ({:.2}, {:.2}, {:.2}), right to left hip ({:.2}, {:.2}, {:.2})); retargeting needs the zero pose upright, as CMU, Mixamo and Biovision files have it: re-export the clip with a T-pose or A-pose rest",
                 up.x, up.y, up.z, side.x, side.y, side.z
             ),

@@ -82,6 +82,15 @@ pub enum SceneError {
         /// Frames in the motion.
         n_frames: usize,
     },
+    /// A BVH clip parses but cannot be used (no frames, a zero pose that does not stand
+    /// upright, joint names that clash).
+    #[error("BVH clip {path}: {message}")]
+    Clip {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong and how to fix it.
+        message: String,
+    },
     /// A motion clip leaves bones of the body's rig without a joint to follow.
     #[error(
         "{clip}: no joint of the clip drives the body bones {missing:?} (tried the {tried} joint map); the clip's joints are {joints:?}. Write a joint map beside it, {map_hint}, with `[joints]` lines `BodyBone = \"ClipJoint\"` (see senc_scene::clip)"

@@ -295,7 +295,7 @@ fn clips_whose_zero_pose_does_not_stand_upright_are_refused() {
     let p = dir.join("zup.bvh");
     std::fs::write(&p, turned.join("\n")).unwrap();
     let e = read_motion(&p, &body.skeleton).unwrap_err();
-    assert!(matches!(e, SceneError::Bvh { .. }) && e.to_string().contains("does not stand Y-up"), "{e}");
+    assert!(matches!(e, SceneError::Clip { .. }) && e.to_string().contains("does not stand Y-up"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -310,7 +310,22 @@ fn files_that_are_not_clips_are_refused() {
     let p = dir.join("empty.bvh");
     std::fs::write(&p, "HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n}\nMOTION\nFrames: 0\nFrame Time: 0.1\n").unwrap();
     let e = read_motion(&p, &body.skeleton).unwrap_err();
-    assert!(e.to_string().contains("no frames"), "{e}");
+    assert!(matches!(e, SceneError::Clip { .. }) && e.to_string().contains("no frames"), "{e}");
+    // Namespaces that hide a clash.
+    let p2 = dir.join("clash.bvh");
+    std::fs::write(&p2, "HIERARCHY\nROOT a:Hips\n{\nOFFSET 0 0 0\nCHANNELS 1 Yrotation\nJOINT b:Hips\n{\nOFFSET 0 1 0\nEnd Site\n{\nOFFSET 0 1 0\n}\n}\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\n0\n").unwrap();
+    let e = read_motion(&p2, &body.skeleton).unwrap_err();
+    assert!(matches!(e, SceneError::Clip { .. }) && e.to_string().contains("two joints are called Hips"), "{e}");
+    // Legs of near-zero length scale the root translation past f32: refused, not stored.
+    let mut bvh = Bvh::read(clip("mocapbank_150.bvh")).unwrap();
+    for j in ["LeftKnee", "LeftAnkle"] {
+        let k = bvh.find(j).unwrap();
+        bvh.joints[k].offset *= 1e-150;
+    }
+    let p3 = dir.join("tiny_legs.bvh");
+    std::fs::write(&p3, bvh.to_bvh_string()).unwrap();
+    let e = read_motion(&p3, &body.skeleton).unwrap_err();
+    assert!(e.to_string().contains("non-finite"), "{e}");
     std::fs::write(dir.join("empty.bvh"), "").unwrap();
     assert!(matches!(read_motion(&p, &body.skeleton), Err(SceneError::Bvh { .. })));
     let _ = std::fs::remove_dir_all(&dir);
