@@ -16,7 +16,7 @@ use senc_scene::build::{extract, subdivide_quads, triangulate, WeightLists};
 use senc_scene::motion::{retarget, BOXING_TO_CMU_MB, CMU_TO_CMU_MB};
 use senc_scene::{BodyAsset, Bone, Bvh, Skeleton, SkinWeights};
 
-use crate::fit;
+use senc_scene::fit::{describe, fit, FitOptions, FitReport};
 
 /// Clearance of fitted garments from the body, m.
 const MARGIN: f64 = 5e-3;
@@ -81,28 +81,14 @@ struct PolyObj {
     group: Vec<String>,
 }
 
+/// An OBJ's polygons with the name of the group each lies in (senc-geom's reader).
 fn read_polys(path: &Path, scale: f64) -> Result<PolyObj> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut o = PolyObj { positions: Vec::new(), polys: Vec::new(), group: Vec::new() };
-    let mut g = String::new();
-    for line in text.lines() {
-        let mut it = line.split_whitespace();
-        match it.next() {
-            Some("v") => {
-                let c: Vec<f64> = it.take(3).map(|x| x.parse().unwrap_or(f64::NAN)).collect();
-                o.positions.push(Vec3::new(c[0], c[1], c[2]) * scale);
-            }
-            Some("g") => g = it.collect::<Vec<_>>().join(" "),
-            Some("f") => {
-                let p: Result<Vec<u32>, _> =
-                    it.map(|t| t.split('/').next().unwrap_or("").parse::<u32>().map(|i| i - 1)).collect();
-                o.polys.push(p.with_context(|| format!("bad face line in {}: {line}", path.display()))?);
-                o.group.push(g.clone());
-            }
-            _ => {}
-        }
+    let d = senc_geom::obj::ObjData::read(path)?;
+    let mut group = vec![String::new(); d.polygons.len()];
+    for (name, range) in &d.polygon_groups {
+        group[range.clone()].iter_mut().for_each(|g| g.clone_from(name));
     }
-    Ok(o)
+    Ok(PolyObj { positions: d.positions.iter().map(|p| p * scale).collect(), polys: d.polygons, group })
 }
 
 fn build_skeleton(mpfb: &Path, base: &PolyObj) -> Result<Skeleton> {
@@ -234,8 +220,10 @@ pub fn run(out: &Path, work: &Path) -> Result<()> {
     senc_scene::assets::write_msgpack(out.join("body.msgpack"), &body)?;
 
     let garments = out.join("garments");
-    let save = |asset: &senc_scene::GarmentAsset, rep: &fit::FitReport| -> Result<()> {
-        println!("{}", fit::describe(asset, rep));
+    // Garments made on this body keep their weights and need no alignment.
+    let own = FitOptions { align: false, margin: MARGIN, ..FitOptions::default() };
+    let save = |asset: &senc_scene::GarmentAsset, rep: &FitReport| -> Result<()> {
+        println!("{}", describe(asset, rep));
         senc_scene::assets::write_msgpack(garments.join(format!("{}.msgpack", asset.name)), asset)?;
         Ok(())
     };
@@ -245,7 +233,7 @@ pub fn run(out: &Path, work: &Path) -> Result<()> {
     let sw: WeightLists = sold.iter().map(|&v| all_w[v as usize].clone()).collect();
     let (spos, squads, sw) = subdivide_quads(&spos, &to_quads(&spolys)?, &sw);
     let spolys: Vec<Vec<u32>> = squads.iter().map(|q| q.to_vec()).collect();
-    let (a, r) = fit::fit("skirt", spos, triangulate(&spolys), &body, Some(sw), false, MARGIN)?;
+    let (a, r) = fit("skirt", &spos, &triangulate(&spolys), &body, Some(sw), &own)?;
     save(&a, &r)?;
 
     // Long sleeves and pants cut from helper-tights at the waist; pants end above the ankles.
@@ -262,7 +250,7 @@ pub fn run(out: &Path, work: &Path) -> Result<()> {
         let w: WeightLists = old.iter().map(|&v| all_w[v as usize].clone()).collect();
         let (pos, quads, w) = subdivide_quads(&pos, &to_quads(&polys)?, &w);
         let polys: Vec<Vec<u32>> = quads.iter().map(|q| q.to_vec()).collect();
-        let (a, r) = fit::fit(name, pos, triangulate(&polys), &body, Some(w), false, MARGIN)?;
+        let (a, r) = fit(name, &pos, &triangulate(&polys), &body, Some(w), &own)?;
         save(&a, &r)?;
     }
 
@@ -270,7 +258,7 @@ pub fn run(out: &Path, work: &Path) -> Result<()> {
     let shirt = senc_geom::obj::ObjData::read(&shirt_obj)?;
     let spos: Vec<Vec3> = shirt.positions.iter().map(|p| p * 0.01).collect();
     TriMesh::new(spos.clone(), shirt.faces.clone()).context("unisex_shirt")?;
-    let (a, r) = fit::fit("tshirt", spos, shirt.faces.clone(), &body, None, true, MARGIN)?;
+    let (a, r) = fit("tshirt", &spos, &shirt.faces, &body, None, &FitOptions { align: true, ..own })?;
     save(&a, &r)?;
 
     // Motions: CMU 01_01 and 01_03 (train), Boxing_Toes (test), all at 30 fps.

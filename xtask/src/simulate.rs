@@ -1,4 +1,4 @@
-//! `cargo xtask simulate --checkpoint DIR --motion NAME [--wind X,Y,Z] [--frames N]
+//! `cargo xtask simulate --checkpoint DIR --motion NAME|CLIP.bvh [--wind X,Y,Z] [--frames N]
 //! [--garment G] [--previews K] --out DIR`: rolls a trained model out on a motion and writes
 //! one OBJ per frame (garment and proxy body), one animated `sequence.glb` (garment and full
 //! body), and K preview PNGs (front, side and back views) spread over the sequence.
@@ -8,7 +8,7 @@
 
 use std::path::Path;
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use senc_geom::obj::write_obj;
 use senc_geom::Vec3;
 use senc_model::burn::tensor::Device;
@@ -31,7 +31,8 @@ pub struct Args<'a> {
     pub refine: Option<usize>,
     /// Config (default: the checkpoint's own).
     pub config: Option<&'a Path>,
-    /// Motion name.
+    /// Motion: a scene motion name, a `.bvh` clip or `.msgpack` motion file, or a built-in
+    /// motion name.
     pub motion: &'a str,
     /// `X,Y,Z` external acceleration, m/s².
     pub wind: Option<&'a str>,
@@ -71,10 +72,7 @@ pub fn run(a: &Args<'_>) -> Result<()> {
     }
     let cfg = RunConfig::read(&m.config)?;
     let g = m.load_garment(&cfg)?;
-    let (motion, _) = g.scene.motion(a.motion).ok_or_else(|| {
-        let names: Vec<&str> = g.scene.train.iter().chain(&g.scene.test).map(|m| m.name.as_str()).collect();
-        anyhow!("no motion named {}; this scene has {}", a.motion, names.join(", "))
-    })?;
+    let motion = &g.scene.resolve_motion(a.motion)?;
     let wind = a.wind.map(parse_wind).transpose()?.unwrap_or_else(Vec3::zeros);
     let material = scene_material(&g)?;
     let ext = Vec3::from(g.scene.config.external_force.acceleration) + wind;

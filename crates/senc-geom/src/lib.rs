@@ -27,6 +27,7 @@ pub mod neighbors;
 pub mod obj;
 pub mod predicates;
 pub mod remesh;
+pub mod repair;
 pub mod shapes;
 pub mod topology;
 

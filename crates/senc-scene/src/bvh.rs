@@ -91,6 +91,9 @@ pub struct Bvh {
     pub frames: Vec<Vec<f64>>,
 }
 
+/// Joints a file may have (also bounds the nesting depth of the parser).
+pub const MAX_JOINTS: usize = 512;
+
 struct Tokens<'a> {
     toks: Vec<(usize, &'a str)>,
     pos: usize,
@@ -121,10 +124,16 @@ impl<'a> Tokens<'a> {
     }
     fn number(&mut self) -> Result<f64, SceneError> {
         let t = self.next()?;
-        t.parse::<f64>().map_err(|_| {
-            self.pos -= 1;
-            self.err(format!("expected a number, found `{t}`"))
-        })
+        match t.parse::<f64>() {
+            Ok(x) if x.is_finite() => Ok(x),
+            _ => {
+                self.pos -= 1;
+                Err(self.err(format!("expected a finite number, found `{t}`")))
+            }
+        }
+    }
+    fn line(&self) -> Option<usize> {
+        self.toks.get(self.pos).map(|t| t.0)
     }
     fn vec3(&mut self) -> Result<Vec3, SceneError> {
         Ok(Vec3::new(self.number()?, self.number()?, self.number()?))
@@ -161,18 +170,38 @@ impl Bvh {
             return Err(t.err("frame time must be positive"));
         }
         let n_channels: usize = joints.iter().map(|j: &BvhJoint| j.channels.len()).sum();
-        let mut frames = Vec::with_capacity(n_frames as usize);
-        for _ in 0..n_frames as usize {
+        // One frame per line, with exactly one value per channel.
+        let n_frames = n_frames as usize;
+        let mut frames = Vec::with_capacity(n_frames.min(1 << 16));
+        for k in 0..n_frames {
+            let Some(line) = t.line() else {
+                return Err(t.err(format!(
+                    "the file ends after {k} of the {n_frames} frames its header announces (truncated?)"
+                )));
+            };
             let mut row = Vec::with_capacity(n_channels);
-            for _ in 0..n_channels {
+            while t.line() == Some(line) {
                 row.push(t.number()?);
             }
+            if row.len() != n_channels {
+                t.pos -= 1;
+                return Err(t.err(format!(
+                    "frame {k} has {} values, but the hierarchy declares {n_channels} channels",
+                    row.len()
+                )));
+            }
             frames.push(row);
+        }
+        if t.peek().is_some() {
+            return Err(t.err(format!("values follow the {n_frames} frames the header announces")));
         }
         Ok(Self { joints, frame_time, frames })
     }
 
     fn parse_joint(t: &mut Tokens<'_>, parent: Option<usize>, joints: &mut Vec<BvhJoint>) -> Result<(), SceneError> {
+        if joints.len() >= MAX_JOINTS {
+            return Err(t.err(format!("more than {MAX_JOINTS} joints")));
+        }
         let name = t.next()?.to_string();
         t.expect("{")?;
         t.expect("OFFSET")?;
@@ -181,9 +210,22 @@ impl Bvh {
         if t.peek() == Some("CHANNELS") {
             t.next()?;
             let n = t.number()?;
+            if !(0.0..=6.0).contains(&n) || n.fract() != 0.0 {
+                t.pos -= 1;
+                return Err(t.err(format!("a joint has 0 to 6 channels, found `CHANNELS {n}`")));
+            }
             for _ in 0..n as usize {
                 let c = t.next()?;
-                channels.push(Channel::parse(c).ok_or_else(|| t.err(format!("unknown channel `{c}`")))?);
+                let ch = Channel::parse(c).ok_or_else(|| {
+                    t.pos -= 1;
+                    t.err(format!(
+                        "`{c}` is not a channel name (Xposition ... Zrotation); is the CHANNELS count right?"
+                    ))
+                })?;
+                if channels.contains(&ch) {
+                    return Err(t.err(format!("channel `{c}` appears twice in one joint")));
+                }
+                channels.push(ch);
             }
         }
         let me = joints.len();
@@ -205,6 +247,25 @@ impl Bvh {
                 }
             }
         }
+    }
+
+    /// Drops namespace prefixes from joint names (`mixamorig:Hips` becomes `Hips`), as
+    /// exporters add them; an error when two joints would then share a name.
+    pub fn strip_namespaces(&mut self, path: &Path) -> Result<(), SceneError> {
+        for j in &mut self.joints {
+            if let Some((_, bare)) = j.name.rsplit_once(':') {
+                j.name = bare.to_string();
+            }
+        }
+        for (k, j) in self.joints.iter().enumerate() {
+            if self.joints[..k].iter().any(|o| o.name == j.name) {
+                return Err(SceneError::Clip {
+                    path: path.to_owned(),
+                    message: format!("two joints are called {}", j.name),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// BVH text of this motion (shortest round-trip number formatting).

@@ -82,6 +82,67 @@ pub enum SceneError {
         /// Frames in the motion.
         n_frames: usize,
     },
+    /// A BVH clip parses but cannot be used (no frames, a zero pose that does not stand
+    /// upright, joint names that clash).
+    #[error("BVH clip {path}: {message}")]
+    Clip {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong and how to fix it.
+        message: String,
+    },
+    /// A motion clip leaves bones of the body's rig without a joint to follow.
+    #[error(
+        "{clip}: no joint of the clip drives the body bones {missing:?} (tried the {tried} joint map); the clip's joints are {joints:?}. Write a joint map beside it, {map_hint}, with `[joints]` lines `BodyBone = \"ClipJoint\"` (see senc_scene::clip)"
+    )]
+    UnmappedJoints {
+        /// The clip.
+        clip: PathBuf,
+        /// Body bones without a source joint.
+        missing: Vec<String>,
+        /// The clip's joint names.
+        joints: Vec<String>,
+        /// The joint map tried (a built-in name or a file).
+        tried: String,
+        /// Where a joint map would be read from.
+        map_hint: String,
+    },
+    /// A joint map names a joint the clip does not have or a bone the body's rig lacks.
+    #[error("joint map {map}: {message}")]
+    JointMap {
+        /// The joint map (file or built-in name).
+        map: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A motion named neither a scene motion, a file, nor a built-in motion.
+    #[error("no motion {name:?}: it is not a motion of this scene ({scene:?}), not a file, and not a built-in motion ({builtin:?}); give a scene motion name, a .bvh or .msgpack path, or a built-in name")]
+    NoSuchMotion {
+        /// What was asked for.
+        name: String,
+        /// The scene's motion names.
+        scene: Vec<String>,
+        /// The built-in motions beside the body asset.
+        builtin: Vec<String>,
+    },
+    /// A garment file could not be repaired into a valid mesh.
+    #[error("garment {garment}: {source}")]
+    Repair {
+        /// The garment.
+        garment: String,
+        /// Why.
+        source: senc_geom::repair::RepairError,
+    },
+    /// An OBJ has no `o`/`g` group of the name asked for.
+    #[error("{path} has no object or group named {name:?}; it has {available:?}")]
+    NoSuchComponent {
+        /// The OBJ.
+        path: PathBuf,
+        /// The name asked for.
+        name: String,
+        /// Its group names.
+        available: Vec<String>,
+    },
     /// A value out of its allowed range.
     #[error("{0}")]
     Invalid(String),

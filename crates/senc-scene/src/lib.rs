@@ -1,9 +1,11 @@
 //! senc-scene: everything between the registry data and a simulation input, without burn.
 //!
 //! Skeletons and linear blend skinning ([`skeleton`]), BVH motion capture parsing,
-//! resampling and retargeting by joint name ([`bvh`], [`motion`]), the committed body and
+//! resampling and retargeting by joint name ([`bvh`], [`motion`]), motions from files by
+//! name or path ([`clip`]), the committed body and
 //! garment assets ([`assets`]), inside/closest-point queries against the body
-//! ([`body_query`]), the garment building and fitting steps ([`build`]), TOML scene configs
+//! ([`body_query`]), the garment building steps ([`build`]), the fit of garments made
+//! elsewhere, with mesh repair ([`fit`]), TOML scene configs
 //! with a train/test motion split ([`config`], [`scene`]) and a software rasteriser for
 //! preview pictures ([`raster`]).
 //!
@@ -18,8 +20,10 @@ pub mod assets;
 pub mod body_query;
 pub mod build;
 pub mod bvh;
+pub mod clip;
 pub mod config;
 pub mod error;
+pub mod fit;
 pub mod motion;
 pub mod raster;
 pub mod scene;
@@ -28,6 +32,7 @@ pub mod skeleton;
 pub use assets::{BodyAsset, GarmentAsset, NamedLoop};
 pub use body_query::BodyQuery;
 pub use bvh::Bvh;
+pub use clip::JointMap;
 pub use config::SceneConfig;
 pub use error::SceneError;
 pub use motion::Motion;

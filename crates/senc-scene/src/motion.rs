@@ -230,7 +230,7 @@ pub const BOXING_TO_CMU_MB: &[(&str, &str)] = &[
 
 /// Which source joint drives each target bone: `map` entries `(target, source)` first, then
 /// equal names when `same_names` is set.
-fn source_of(bvh: &Bvh, skeleton: &Skeleton, map: &[(&str, &str)], same_names: bool) -> Vec<Option<usize>> {
+pub(crate) fn source_of(bvh: &Bvh, skeleton: &Skeleton, map: &[(&str, &str)], same_names: bool) -> Vec<Option<usize>> {
     skeleton
         .bones
         .iter()

@@ -74,16 +74,7 @@ impl Scene {
         garment.hole_selection(&config.close_holes)?;
         garment.loop_vertices(&config.pin)?;
         let load = |paths: &[std::path::PathBuf]| -> Result<Vec<Motion>, SceneError> {
-            paths
-                .iter()
-                .map(|p| {
-                    let m: Motion = crate::assets::read_msgpack(p)?;
-                    m.check(&body.skeleton)?;
-                    let m = if (m.fps - config.fps).abs() > 1e-9 { m.resample(config.fps)? } else { m };
-                    let m = if config.align_heading { m.aligned_to_rest_heading() } else { m };
-                    m.with_lead_in(config.lead_in_frames)
-                })
-                .collect()
+            paths.iter().map(|p| crate::clip::load_for_scene(p, &config, &body.skeleton, &[])).collect()
         };
         let train = load(&config.motions.train)?;
         let test = load(&config.motions.test)?;
@@ -107,6 +98,17 @@ impl Scene {
             .map(|m| (m, Split::Train))
             .chain(self.test.iter().map(|m| (m, Split::Test)))
             .find(|(m, _)| m.name == name)
+    }
+
+    /// A motion by scene name, or else from a file (`.bvh` clip or `.msgpack` motion,
+    /// relative to the working directory) or a built-in name, prepared as the scene's own
+    /// motions are (see [`crate::clip`]).
+    pub fn resolve_motion(&self, name_or_path: &str) -> Result<Motion, SceneError> {
+        if let Some((m, _)) = self.motion(name_or_path) {
+            return Ok(m.clone());
+        }
+        let names: Vec<String> = self.train.iter().chain(&self.test).map(|m| m.name.clone()).collect();
+        crate::clip::load_for_scene(Path::new(name_or_path), &self.config, &self.body.skeleton, &names)
     }
 
     /// Body vertex positions at `frame` of `motion`, m.
