@@ -235,286 +235,57 @@ impl CutMesh {
         }
     }
 
+    /// Splits face `face` along its half segments `segs`: walks them into chords and closed
+    /// loops, orders the chord ends around the perimeter, traces the pieces between chords,
+    /// then places each closed loop as a disk piece and a hole of the piece around it. A
+    /// face whose segments cannot be ordered is kept whole and counted as complex.
     fn split_face(&mut self, mesh: &TriMesh, inter: &SelfIntersections, face: u32, segs: &[HalfSeg]) {
-        let nv = self.n_vertices as u32;
-        let fv = mesh.faces()[face as usize];
-        // Local 2D coordinates: corner 0 = (0,0), corner 1 = (1,0), corner 2 = (0,1).
-        let local = |node: u32| -> [f64; 2] {
-            let bary: [f64; 3] = if node < nv {
-                let k = fv.iter().position(|&v| v == node).unwrap_or(0);
-                let mut b = [0.0; 3];
-                b[k] = 1.0;
-                b
-            } else {
-                let i = ((node - nv) / 2) as usize;
-                let p = &inter.points[i];
-                if (node - nv) % 2 == 1 {
-                    p.bary
-                } else {
-                    let [a, b] = mesh.topology().edges()[p.edge as usize];
-                    let mut w = [0.0; 3];
-                    for (k, &v) in fv.iter().enumerate() {
-                        if v == a {
-                            w[k] = 1.0 - p.t;
-                        } else if v == b {
-                            w[k] = p.t;
-                        }
-                    }
-                    w
-                }
-            };
-            [bary[1], bary[2]]
-        };
-        let is_perimeter = |node: u32| node < nv || (node - nv) % 2 == 0;
-
-        // Adjacency of this face's nodes through its half segments.
-        let mut adj: FxHashMap<u32, smallvec::SmallVec<[(u32, u32); 2]>> = FxHashMap::default();
-        for (k, s) in segs.iter().enumerate() {
-            adj.entry(s.a).or_default().push((s.b, k as u32));
-            adj.entry(s.b).or_default().push((s.a, k as u32));
-        }
-        // Interior (face) nodes must have degree 2; a degree-1 face node is a dangling end.
-        let mut complex = false;
-        for (&n, list) in &adj {
-            if !is_perimeter(n) && list.len() > 2 {
-                complex = true;
-            }
-        }
-        // Walk chords from perimeter nodes.
-        let mut used = vec![false; segs.len()];
-        let mut chords: Vec<Vec<(u32, u32)>> = Vec::new(); // (node, segment to next) ..., last (node, MAX)
-        let mut starts: Vec<u32> = adj.keys().copied().filter(|&n| is_perimeter(n)).collect();
-        starts.sort_unstable();
-        for &s in &starts {
-            for &(next0, k0) in adj[&s].clone().iter() {
-                if used[k0 as usize] {
-                    continue;
-                }
-                let mut chord = vec![(s, segs[k0 as usize].segment)];
-                used[k0 as usize] = true;
-                let mut cur = next0;
-                loop {
-                    if is_perimeter(cur) {
-                        chord.push((cur, u32::MAX));
-                        break;
-                    }
-                    let nxt = adj[&cur].iter().find(|(_, k)| !used[*k as usize]).copied();
-                    match nxt {
-                        Some((n, k)) => {
-                            used[k as usize] = true;
-                            chord.push((cur, segs[k as usize].segment));
-                            cur = n;
-                        }
-                        None => {
-                            chord.push((cur, u32::MAX));
-                            break;
-                        }
-                    }
-                }
-                chords.push(chord);
-            }
-        }
-        // Closed loops of face nodes.
-        let mut loops: Vec<Vec<(u32, u32)>> = Vec::new();
-        for k in 0..segs.len() {
-            if used[k] {
-                continue;
-            }
-            let start = segs[k].a;
-            let mut lp = vec![(start, segs[k].segment)];
-            used[k] = true;
-            let mut cur = segs[k].b;
-            while cur != start {
-                match adj[&cur].iter().find(|(_, j)| !used[*j as usize]).copied() {
-                    Some((n, j)) => {
-                        used[j as usize] = true;
-                        lp.push((cur, segs[j as usize].segment));
-                        cur = n;
-                    }
-                    None => {
-                        complex = true;
-                        break;
-                    }
-                }
-            }
-            loops.push(lp);
-        }
+        let frame = FaceFrame { mesh, inter, nv: self.n_vertices as u32, fv: mesh.faces()[face as usize] };
+        let walk = walk_segments(&frame, segs);
         let mut proper: Vec<Vec<(u32, u32)>> = Vec::new();
-        for c in chords {
+        for c in walk.chords {
             let end = c.last().map(|x| x.0).unwrap_or(0);
-            if is_perimeter(end) && c.len() >= 2 && !(c.len() == 2 && c[0].0 == end) {
+            if frame.is_perimeter(end) && c.len() >= 2 && !(c.len() == 2 && c[0].0 == end) {
                 proper.push(c);
             } else {
                 self.n_dangling_chords += 1;
             }
         }
-        if complex {
+        if walk.complex {
             self.n_complex_faces += 1;
-            return self.push_whole(face, fv);
+            return self.push_whole(face, frame.fv);
         }
-
-        // Perimeter events: (position s along the perimeter, tie-break, node, chord end).
-        let perim_pos = |node: u32| -> (f64, usize) {
-            let [u, v] = local(node);
-            let b = [1.0 - u - v, u, v];
-            if node < nv {
-                let k = fv.iter().position(|&x| x == node).unwrap_or(0);
-                return (k as f64, k);
-            }
-            // On the side between corners k and k+1, decided by the edge's identity (the
-            // weights alone are ambiguous when the crossing sits exactly at a corner).
-            let i = ((node - nv) / 2) as usize;
-            let [ea, eb] = mesh.topology().edges()[inter.points[i].edge as usize];
-            let k = (0..3)
-                .find(|&k| {
-                    let (p, q) = (fv[k], fv[(k + 1) % 3]);
-                    (p == ea && q == eb) || (p == eb && q == ea)
-                })
-                .unwrap_or(0);
-            // Strictly inside the side, so that corners order before and after it.
-            let frac = b[(k + 1) % 3].clamp(1e-12, 1.0 - 1e-12);
-            (k as f64 + frac, k)
-        };
-        struct Event {
-            s: f64,
-            tie: f64,
-            node: u32,
-            chord: Option<(usize, bool)>, // chord index, at its start?
-        }
-        let mut events: Vec<Event> = Vec::new();
-        for k in 0..3u32 {
-            events.push(Event { s: k as f64, tie: f64::INFINITY, node: fv[k as usize], chord: None });
-        }
-        for (ci, c) in proper.iter().enumerate() {
-            for (at_start, (node, other)) in [(true, (c[0].0, c[1].0)), (false, (c[c.len() - 1].0, c[c.len() - 2].0))] {
-                let (s, k) = perim_pos(node);
-                let tie = if node < nv {
-                    // Chords at a corner: ordered by decreasing angle from the outgoing side.
-                    let o = local(node);
-                    let nx = local(fv[(k + 1) % 3]);
-                    let d = local(other);
-                    let out = [nx[0] - o[0], nx[1] - o[1]];
-                    let dir = [d[0] - o[0], d[1] - o[1]];
-                    -(out[0] * dir[1] - out[1] * dir[0]).atan2(out[0] * dir[0] + out[1] * dir[1])
-                } else {
-                    // Edge nodes at the same position (exactly coincident crossings): chords
-                    // of a planar cut nest, so the node whose chord ends farther along the
-                    // perimeter (counterclockwise) comes first. Exact ties in that too are
-                    // ordered along the global edge direction, so both faces agree.
-                    let far = c_other_end(c, at_start);
-                    let d = if is_perimeter(far) { (perim_pos(far).0 - s).rem_euclid(3.0) } else { 0.0 };
-                    let i = ((node - nv) / 2) as usize;
-                    let [a, _] = mesh.topology().edges()[inter.points[i].edge as usize];
-                    let along = if fv[k] == a { node as f64 } else { -(node as f64) };
-                    -d * 1e12 + along * 1e-3
-                };
-                events.push(Event { s, tie, node, chord: Some((ci, at_start)) });
-            }
-        }
-        events.sort_by(|a, b| a.s.total_cmp(&b.s).then(a.tie.total_cmp(&b.tie)).then(a.node.cmp(&b.node)));
-        let m = events.len();
-        // Where each chord end sits among the events.
-        let mut chord_event = vec![[usize::MAX; 2]; proper.len()];
-        for (i, ev) in events.iter().enumerate() {
-            if let Some((ci, at_start)) = ev.chord {
-                chord_event[ci][if at_start { 0 } else { 1 }] = i;
-            }
-        }
-        let slot_of = |i: usize| -> u8 { (events[i].s.floor() as i64).rem_euclid(3) as u8 };
-        let mut visited = vec![false; m];
+        let events = perimeter_events(&frame, &proper);
         let first_piece = self.pieces.len();
-        for j0 in 0..m {
-            if visited[j0] {
-                continue;
-            }
-            let mut cycle: Vec<(u32, EdgeTag)> = Vec::new();
-            let push = |cycle: &mut Vec<(u32, EdgeTag)>, node: u32, tag: EdgeTag| {
-                if let Some(last) = cycle.last_mut() {
-                    if last.0 == node {
-                        last.1 = tag;
-                        return;
-                    }
-                }
-                cycle.push((node, tag));
-            };
-            let mut j = j0;
-            let mut guard = 0;
-            loop {
-                guard += 1;
-                if guard > 4 * m + 8 {
-                    break;
-                }
-                visited[j] = true;
-                push(&mut cycle, events[j].node, EdgeTag::Perimeter { slot: slot_of(j) });
-                let k = (j + 1) % m;
-                if k == j0 {
-                    break;
-                }
-                if let Some((ci, at_start)) = events[k].chord {
-                    // Follow the chord to its other end.
-                    let c = &proper[ci];
-                    let nodes: Vec<(u32, u32)> = if at_start {
-                        c.clone()
-                    } else {
-                        // Reverse: the segment to the next node is the one stored one step back.
-                        let mut r: Vec<(u32, u32)> = Vec::with_capacity(c.len());
-                        for w in (0..c.len()).rev() {
-                            let seg = if w > 0 { c[w - 1].1 } else { u32::MAX };
-                            r.push((c[w].0, seg));
-                        }
-                        r
-                    };
-                    for &(node, seg) in &nodes[..nodes.len() - 1] {
-                        push(&mut cycle, node, EdgeTag::Chord { segment: seg });
-                    }
-                    let other = chord_event[ci][if at_start { 1 } else { 0 }];
-                    if other == j0 {
-                        break;
-                    }
-                    if visited[other] {
-                        break;
-                    }
-                    j = other;
-                } else {
-                    j = k;
-                }
-            }
-            if let (Some(f), Some(l)) = (cycle.first(), cycle.last()) {
-                if cycle.len() > 1 && f.0 == l.0 {
-                    cycle.pop();
-                }
-            }
-            if cycle.len() >= 3 {
-                self.pieces.push(Piece { face, cycles: vec![cycle] });
-            }
+        for cycle in trace_cycles(&events, &proper) {
+            self.pieces.push(Piece { face, cycles: vec![cycle] });
         }
-        // Closed loops inside the face: a disk piece, and a hole in the piece around it.
+        self.place_loops(&frame, face, first_piece, walk.loops);
+        if self.pieces.len() == first_piece {
+            self.n_complex_faces += 1;
+            self.push_whole(face, frame.fv);
+        }
+    }
+
+    /// Closed loops inside the face: each becomes a disk piece (counterclockwise) and a
+    /// clockwise hole of the smallest piece around it.
+    fn place_loops(&mut self, frame: &FaceFrame, face: u32, first_piece: usize, loops: Vec<Vec<(u32, u32)>>) {
         for lp in loops {
             let mut ring: Vec<(u32, EdgeTag)> = lp.iter().map(|&(n, s)| (n, EdgeTag::Chord { segment: s })).collect();
-            let pts: Vec<[f64; 2]> = ring.iter().map(|r| local(r.0)).collect();
+            let pts: Vec<[f64; 2]> = ring.iter().map(|r| frame.local(r.0)).collect();
             if signed_area(&pts) < 0.0 {
                 ring = reverse_cycle(&ring);
             }
-            let probe = local(ring[0].0);
+            let probe = frame.local(ring[0].0);
+            let outer =
+                |p: usize| -> Vec<[f64; 2]> { self.pieces[p].cycles[0].iter().map(|r| frame.local(r.0)).collect() };
             let host = (first_piece..self.pieces.len())
-                .filter(|&p| {
-                    let poly: Vec<[f64; 2]> = self.pieces[p].cycles[0].iter().map(|r| local(r.0)).collect();
-                    point_in_polygon(probe, &poly)
-                })
-                .min_by(|&a, &b| {
-                    let area = |p: usize| {
-                        signed_area(&self.pieces[p].cycles[0].iter().map(|r| local(r.0)).collect::<Vec<_>>())
-                    };
-                    area(a).total_cmp(&area(b))
-                });
+                .filter(|&p| point_in_polygon(probe, &outer(p)))
+                .min_by(|&a, &b| signed_area(&outer(a)).total_cmp(&signed_area(&outer(b))));
             if let Some(h) = host {
                 self.pieces[h].cycles.push(reverse_cycle(&ring));
             }
             self.pieces.push(Piece { face, cycles: vec![ring] });
-        }
-        if self.pieces.len() == first_piece {
-            self.n_complex_faces += 1;
-            self.push_whole(face, fv);
         }
     }
 
@@ -522,6 +293,289 @@ impl CutMesh {
         let cycle = (0..3).map(|k| (fv[k], EdgeTag::Perimeter { slot: k as u8 })).collect();
         self.pieces.push(Piece { face, cycles: vec![cycle] });
     }
+}
+
+/// One face being split: its corners and the local coordinates of its nodes.
+struct FaceFrame<'a> {
+    mesh: &'a TriMesh,
+    inter: &'a SelfIntersections,
+    nv: u32,
+    fv: [u32; 3],
+}
+
+impl FaceFrame<'_> {
+    /// Local 2D coordinates of a node of this face: corner 0 = (0,0), corner 1 = (1,0),
+    /// corner 2 = (0,1).
+    fn local(&self, node: u32) -> [f64; 2] {
+        let (nv, fv) = (self.nv, self.fv);
+        let bary: [f64; 3] = if node < nv {
+            let k = fv.iter().position(|&v| v == node).unwrap_or(0);
+            let mut b = [0.0; 3];
+            b[k] = 1.0;
+            b
+        } else {
+            let i = ((node - nv) / 2) as usize;
+            let p = &self.inter.points[i];
+            if (node - nv) % 2 == 1 {
+                p.bary
+            } else {
+                let [a, b] = self.mesh.topology().edges()[p.edge as usize];
+                let mut w = [0.0; 3];
+                for (k, &v) in fv.iter().enumerate() {
+                    if v == a {
+                        w[k] = 1.0 - p.t;
+                    } else if v == b {
+                        w[k] = p.t;
+                    }
+                }
+                w
+            }
+        };
+        [bary[1], bary[2]]
+    }
+
+    /// Whether a node lies on the face's perimeter (a corner or an edge node).
+    fn is_perimeter(&self, node: u32) -> bool {
+        node < self.nv || (node - self.nv) % 2 == 0
+    }
+
+    /// The edge (global vertex pair) of an edge node.
+    fn edge_of(&self, node: u32) -> [u32; 2] {
+        let i = ((node - self.nv) / 2) as usize;
+        self.mesh.topology().edges()[self.inter.points[i].edge as usize]
+    }
+
+    /// Position along the perimeter (`k + fraction` on the side from corner k to k+1) and
+    /// the side k.
+    fn perimeter_position(&self, node: u32) -> (f64, usize) {
+        let fv = self.fv;
+        let [u, v] = self.local(node);
+        let b = [1.0 - u - v, u, v];
+        if node < self.nv {
+            let k = fv.iter().position(|&x| x == node).unwrap_or(0);
+            return (k as f64, k);
+        }
+        // On the side between corners k and k+1, decided by the edge's identity (the
+        // weights alone are ambiguous when the crossing sits exactly at a corner).
+        let [ea, eb] = self.edge_of(node);
+        let k = (0..3)
+            .find(|&k| {
+                let (p, q) = (fv[k], fv[(k + 1) % 3]);
+                (p == ea && q == eb) || (p == eb && q == ea)
+            })
+            .unwrap_or(0);
+        // Strictly inside the side, so that corners order before and after it.
+        let frac = b[(k + 1) % 3].clamp(1e-12, 1.0 - 1e-12);
+        (k as f64 + frac, k)
+    }
+}
+
+/// The segments of one face walked into runs: chords (from a perimeter node, through face
+/// nodes, to a perimeter node or a dangling end) and closed loops of face nodes. Each run
+/// is a list of `(node, segment to the next node)`; a chord's last entry has `u32::MAX`.
+struct Walk {
+    chords: Vec<Vec<(u32, u32)>>,
+    loops: Vec<Vec<(u32, u32)>>,
+    /// A face node of degree above two, or a loop that does not close (triple points).
+    complex: bool,
+}
+
+fn walk_segments(frame: &FaceFrame, segs: &[HalfSeg]) -> Walk {
+    // Adjacency of this face's nodes through its half segments.
+    let mut adj: FxHashMap<u32, smallvec::SmallVec<[(u32, u32); 2]>> = FxHashMap::default();
+    for (k, s) in segs.iter().enumerate() {
+        adj.entry(s.a).or_default().push((s.b, k as u32));
+        adj.entry(s.b).or_default().push((s.a, k as u32));
+    }
+    // Interior (face) nodes must have degree 2; a degree-1 face node is a dangling end.
+    let mut complex = adj.iter().any(|(&n, list)| !frame.is_perimeter(n) && list.len() > 2);
+    // Walk chords from perimeter nodes.
+    let mut used = vec![false; segs.len()];
+    let mut chords: Vec<Vec<(u32, u32)>> = Vec::new();
+    let mut starts: Vec<u32> = adj.keys().copied().filter(|&n| frame.is_perimeter(n)).collect();
+    starts.sort_unstable();
+    for &s in &starts {
+        for &(next0, k0) in adj[&s].clone().iter() {
+            if used[k0 as usize] {
+                continue;
+            }
+            let mut chord = vec![(s, segs[k0 as usize].segment)];
+            used[k0 as usize] = true;
+            let mut cur = next0;
+            loop {
+                if frame.is_perimeter(cur) {
+                    chord.push((cur, u32::MAX));
+                    break;
+                }
+                let nxt = adj[&cur].iter().find(|(_, k)| !used[*k as usize]).copied();
+                match nxt {
+                    Some((n, k)) => {
+                        used[k as usize] = true;
+                        chord.push((cur, segs[k as usize].segment));
+                        cur = n;
+                    }
+                    None => {
+                        chord.push((cur, u32::MAX));
+                        break;
+                    }
+                }
+            }
+            chords.push(chord);
+        }
+    }
+    // Closed loops of face nodes.
+    let mut loops: Vec<Vec<(u32, u32)>> = Vec::new();
+    for k in 0..segs.len() {
+        if used[k] {
+            continue;
+        }
+        let start = segs[k].a;
+        let mut lp = vec![(start, segs[k].segment)];
+        used[k] = true;
+        let mut cur = segs[k].b;
+        while cur != start {
+            match adj[&cur].iter().find(|(_, j)| !used[*j as usize]).copied() {
+                Some((n, j)) => {
+                    used[j as usize] = true;
+                    lp.push((cur, segs[j as usize].segment));
+                    cur = n;
+                }
+                None => {
+                    complex = true;
+                    break;
+                }
+            }
+        }
+        loops.push(lp);
+    }
+    Walk { chords, loops, complex }
+}
+
+/// A corner or chord end on the perimeter, at position `s` (see
+/// [`FaceFrame::perimeter_position`]), ordered by `(s, tie, node)`.
+struct Event {
+    s: f64,
+    tie: f64,
+    node: u32,
+    /// Chord index, and whether this is its start.
+    chord: Option<(usize, bool)>,
+}
+
+/// The three corners and both ends of every chord, sorted counterclockwise along the
+/// perimeter.
+fn perimeter_events(frame: &FaceFrame, proper: &[Vec<(u32, u32)>]) -> Vec<Event> {
+    let (nv, fv) = (frame.nv, frame.fv);
+    let mut events: Vec<Event> = Vec::new();
+    for k in 0..3u32 {
+        events.push(Event { s: k as f64, tie: f64::INFINITY, node: fv[k as usize], chord: None });
+    }
+    for (ci, c) in proper.iter().enumerate() {
+        for (at_start, (node, other)) in [(true, (c[0].0, c[1].0)), (false, (c[c.len() - 1].0, c[c.len() - 2].0))] {
+            let (s, k) = frame.perimeter_position(node);
+            let tie = if node < nv {
+                // Chords at a corner: ordered by decreasing angle from the outgoing side.
+                let o = frame.local(node);
+                let nx = frame.local(fv[(k + 1) % 3]);
+                let d = frame.local(other);
+                let out = [nx[0] - o[0], nx[1] - o[1]];
+                let dir = [d[0] - o[0], d[1] - o[1]];
+                -(out[0] * dir[1] - out[1] * dir[0]).atan2(out[0] * dir[0] + out[1] * dir[1])
+            } else {
+                // Edge nodes at the same position (exactly coincident crossings): chords
+                // of a planar cut nest, so the node whose chord ends farther along the
+                // perimeter (counterclockwise) comes first. Exact ties in that too are
+                // ordered along the global edge direction, so both faces agree.
+                let far = c_other_end(c, at_start);
+                let d =
+                    if frame.is_perimeter(far) { (frame.perimeter_position(far).0 - s).rem_euclid(3.0) } else { 0.0 };
+                let [a, _] = frame.edge_of(node);
+                let along = if fv[k] == a { node as f64 } else { -(node as f64) };
+                -d * 1e12 + along * 1e-3
+            };
+            events.push(Event { s, tie, node, chord: Some((ci, at_start)) });
+        }
+    }
+    events.sort_by(|a, b| a.s.total_cmp(&b.s).then(a.tie.total_cmp(&b.tie)).then(a.node.cmp(&b.node)));
+    events
+}
+
+/// The outer cycles of the pieces: walk the perimeter counterclockwise and, at each chord
+/// end, follow the chord to its other end.
+fn trace_cycles(events: &[Event], proper: &[Vec<(u32, u32)>]) -> Vec<Vec<(u32, EdgeTag)>> {
+    let m = events.len();
+    // Where each chord end sits among the events.
+    let mut chord_event = vec![[usize::MAX; 2]; proper.len()];
+    for (i, ev) in events.iter().enumerate() {
+        if let Some((ci, at_start)) = ev.chord {
+            chord_event[ci][if at_start { 0 } else { 1 }] = i;
+        }
+    }
+    let slot_of = |i: usize| -> u8 { (events[i].s.floor() as i64).rem_euclid(3) as u8 };
+    let push = |cycle: &mut Vec<(u32, EdgeTag)>, node: u32, tag: EdgeTag| {
+        if let Some(last) = cycle.last_mut() {
+            if last.0 == node {
+                last.1 = tag;
+                return;
+            }
+        }
+        cycle.push((node, tag));
+    };
+    let mut visited = vec![false; m];
+    let mut out = Vec::new();
+    for j0 in 0..m {
+        if visited[j0] {
+            continue;
+        }
+        let mut cycle: Vec<(u32, EdgeTag)> = Vec::new();
+        let mut j = j0;
+        let mut guard = 0;
+        loop {
+            guard += 1;
+            if guard > 4 * m + 8 {
+                break;
+            }
+            visited[j] = true;
+            push(&mut cycle, events[j].node, EdgeTag::Perimeter { slot: slot_of(j) });
+            let k = (j + 1) % m;
+            if k == j0 {
+                break;
+            }
+            if let Some((ci, at_start)) = events[k].chord {
+                // Follow the chord to its other end.
+                let c = &proper[ci];
+                let nodes: Vec<(u32, u32)> = if at_start {
+                    c.clone()
+                } else {
+                    // Reverse: the segment to the next node is the one stored one step back.
+                    let mut r: Vec<(u32, u32)> = Vec::with_capacity(c.len());
+                    for w in (0..c.len()).rev() {
+                        let seg = if w > 0 { c[w - 1].1 } else { u32::MAX };
+                        r.push((c[w].0, seg));
+                    }
+                    r
+                };
+                for &(node, seg) in &nodes[..nodes.len() - 1] {
+                    push(&mut cycle, node, EdgeTag::Chord { segment: seg });
+                }
+                let other = chord_event[ci][if at_start { 1 } else { 0 }];
+                if other == j0 || visited[other] {
+                    break;
+                }
+                j = other;
+            } else {
+                j = k;
+            }
+        }
+        if let (Some(f), Some(l)) = (cycle.first(), cycle.last()) {
+            if cycle.len() > 1 && f.0 == l.0 {
+                cycle.pop();
+            }
+        }
+        if cycle.len() >= 3 {
+            out.push(cycle);
+        }
+    }
+    out
 }
 
 /// The node at the other end of a chord.
