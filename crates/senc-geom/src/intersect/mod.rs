@@ -100,6 +100,7 @@ impl SelfIntersections {
 mod bvh;
 mod pair;
 mod patches;
+mod ray;
 mod rings;
 #[cfg(test)]
 mod tests;
@@ -107,6 +108,7 @@ mod traversal;
 
 pub use bvh::SelfIntersector;
 pub use pair::{barycentric, edge_parameter};
+pub use ray::{ray_winding_brute, AxisRay};
 pub use rings::embedded_rings;
 
 use bvh::*;

@@ -320,3 +320,72 @@ fn boundary_segment_tests_separate_only_with_margin() {
     assert!(!segments_apart(&seg([0, 1], [0.0, 0.0], [1.0, 0.0]), &seg([1, 2], [1.0, 0.0], [0.5, 0.0]), tol));
     assert!(!segments_apart(&seg([0, 1], [0.0, 0.0], [1.0, 0.0]), &seg([0, 1], [0.0, 0.0], [1.0, 0.0]), tol));
 }
+
+/// The same mesh with every face turned over (outward normals point inward).
+fn flipped(m: &TriMesh) -> TriMesh {
+    TriMesh::new(m.positions().to_vec(), m.faces().iter().map(|&[a, b, c]| [a, c, b]).collect()).unwrap()
+}
+
+#[test]
+fn ray_counts_are_winding_numbers_in_every_direction() {
+    let v = |x: f64, y: f64, z: f64| Vec3::new(x, y, z);
+    let big = shapes::icosphere(v(0.0, 0.0, 0.0), 1.0, 2).unwrap();
+    let small = shapes::icosphere(v(0.1, 0.0, 0.0), 0.4, 2).unwrap();
+    let nested = shapes::merge(&big, &small).unwrap();
+    let inverted = flipped(&big);
+    // (mesh, point, winding number there)
+    let cases = [
+        (&big, v(0.0, 0.0, 0.0), 1),
+        (&big, v(2.0, 0.3, 0.0), 0),
+        (&nested, v(0.1, 0.0, 0.0), 2),
+        (&nested, v(0.0, 0.8, 0.0), 1),
+        (&nested, v(0.0, 0.0, 3.0), 0),
+        (&inverted, v(0.0, 0.0, 0.0), -1),
+    ];
+    for (mesh, origin, expect) in cases {
+        let mut ix = SelfIntersector::new(mesh);
+        ix.find(mesh);
+        for axis in 0..3 {
+            for positive in [false, true] {
+                let ray = AxisRay { origin, axis, positive };
+                assert_eq!(ray_winding_brute(mesh, &ray, u32::MAX), expect, "{origin:?} {axis} {positive}");
+                assert_eq!(ix.ray_winding(mesh, &ray, u32::MAX), expect, "{origin:?} {axis} {positive}");
+            }
+        }
+    }
+}
+
+#[test]
+fn rays_through_edges_and_vertices_of_grid_meshes_count_consistently() {
+    // A grid box: rays from lattice points run exactly along faces, through edges and
+    // vertices; the perturbed count must still be the winding number (1 inside, 0 outside)
+    // and the BVH must agree with the brute force.
+    let m = shapes::grid_box(Vec3::zeros(), Vec3::new(1.0, 1.0, 1.0), 4).unwrap();
+    let mut ix = SelfIntersector::new(&m);
+    ix.find(&m);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    for _ in 0..400 {
+        let q = Vec3::new(
+            rng.random_range(-2..7) as f64 / 4.0,
+            rng.random_range(-2..7) as f64 / 4.0,
+            rng.random_range(-2..7) as f64 / 4.0,
+        );
+        let strictly_inside = q.iter().all(|&c| c > 0.0 && c < 1.0);
+        let strictly_outside = q.iter().any(|&c| !(0.0..=1.0).contains(&c));
+        for axis in 0..3 {
+            for positive in [false, true] {
+                let ray = AxisRay { origin: q, axis, positive };
+                let w = ray_winding_brute(&m, &ray, u32::MAX);
+                assert_eq!(ix.ray_winding(&m, &ray, u32::MAX), w);
+                if strictly_inside {
+                    assert_eq!(w, 1, "{q:?}");
+                } else if strictly_outside {
+                    assert_eq!(w, 0, "{q:?}");
+                } else {
+                    // On the surface: the perturbed origin is on one side or the other.
+                    assert!(w == 0 || w == 1, "{q:?} {w}");
+                }
+            }
+        }
+    }
+}
