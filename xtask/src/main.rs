@@ -1,6 +1,6 @@
 //! `cargo xtask <command>`: every command senc users run.
 //!
-//! - `volume MESH.obj [--close-holes] [--leave-open N ...] [--json]`: the penetration volume
+//! - `volume MESH.obj [--close-holes] [--leave-open N ...] [--smaller-side] [--repeat N] [--json]`: the penetration volume
 //!   (SENC's self-collision energy) with regions, paths, diagnostics and time taken.
 //! - `check-mesh MESH.obj [--close-holes] [--json]`: validate a mesh and print its topology
 //!   (vertices, faces, boundary loops, components, closure).
@@ -62,9 +62,15 @@ enum Command {
         /// Gradient with SENC's fixed barycentric weights instead of the exact one.
         #[arg(long)]
         fixed_barycentric: bool,
-        /// Decide the penetrating side by area instead of face count.
+        /// SENC's smaller-side flood fill instead of winding numbers (ablation).
+        #[arg(long)]
+        smaller_side: bool,
+        /// With --smaller-side: decide the penetrating side by area instead of face count.
         #[arg(long)]
         area_rule: bool,
+        /// Warm calls on the same workspace after the first (their median is `time_ms`).
+        #[arg(long, default_value_t = 0)]
+        repeat: usize,
     },
     /// Energy of a predicted frame x[t+1], term by term (joules).
     Energy {
@@ -266,16 +272,25 @@ fn main() -> std::process::ExitCode {
             println!();
             return std::process::ExitCode::SUCCESS;
         }
-        Some(Command::Volume { mesh, close_holes, leave_open, json, fixed_barycentric, area_rule }) => {
-            volume::run(&volume::VolumeArgs {
-                mesh: &mesh,
-                close_holes,
-                leave_open: &leave_open,
-                json,
-                fixed_barycentric,
-                area_rule,
-            })
-        }
+        Some(Command::Volume {
+            mesh,
+            close_holes,
+            leave_open,
+            json,
+            fixed_barycentric,
+            smaller_side,
+            area_rule,
+            repeat,
+        }) => volume::run(&volume::VolumeArgs {
+            mesh: &mesh,
+            close_holes,
+            leave_open: &leave_open,
+            json,
+            fixed_barycentric,
+            smaller_side,
+            area_rule,
+            repeat,
+        }),
         Some(Command::CheckMesh { mesh, close_holes, json }) => check_mesh::run(&mesh, close_holes, json),
         Some(Command::Energy { garment, state, prev, prev2, body, body_next, config, json }) => {
             energy::run(&energy::Args { garment, state, prev, prev2, body, body_next, config, json })

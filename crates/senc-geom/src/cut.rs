@@ -172,6 +172,15 @@ impl CutMesh {
         self.directed.get(&(from, to)).copied()
     }
 
+    /// The original face of fill id `id` (an uncut face is its own).
+    pub fn face_of(&self, id: u32) -> u32 {
+        if (id as usize) < self.n_faces {
+            id
+        } else {
+            self.pieces[id as usize - self.n_faces].face
+        }
+    }
+
     /// Total number of fill ids (`n_faces + pieces`).
     pub fn n_fill_ids(&self) -> usize {
         self.n_faces + self.pieces.len()

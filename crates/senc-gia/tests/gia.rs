@@ -3,7 +3,7 @@
 use nalgebra::{Rotation3, Vector3};
 use senc_geom::shapes::{grid_box, icosphere, jitter, merge, rigid_transform};
 use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
-use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, Penetration, SizeRule};
+use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, Penetration, SizeRule, VolumeRule};
 
 fn pen(mesh: &TriMesh, opts: &GiaOptions) -> Penetration {
     let closure = close_holes(mesh, &HoleSelection::All).unwrap();
@@ -28,9 +28,10 @@ fn overlapping_boxes_give_the_exact_overlap() {
         (Vec3::new(0.5, 0.5, 0.5), 3), // grid-made
     ] {
         let m = two_boxes(offset, n);
-        for rule in [SizeRule::Faces, SizeRule::Area] {
-            let p = pen(&m, &GiaOptions { size_rule: rule, ..Default::default() });
-            let expect = overlap(offset);
+        let expect = overlap(offset);
+        for size_rule in [SizeRule::Faces, SizeRule::Area] {
+            let opts = GiaOptions { rule: VolumeRule::SmallerSide, size_rule, ..Default::default() };
+            let p = pen(&m, &opts);
             assert!(
                 (p.volume - expect).abs() <= 1e-9 * expect,
                 "offset {offset:?} n {n}: {} vs {expect}, {:?}",
@@ -39,6 +40,13 @@ fn overlapping_boxes_give_the_exact_overlap() {
             );
             assert_eq!(p.regions.len(), 1, "{:?}", p.diagnostics);
         }
+        let p = pen(&m, &GiaOptions::default());
+        assert!((p.volume - expect).abs() <= 1e-9 * expect, "winding, offset {offset:?}: {} vs {expect}", p.volume);
+        // The part of each box inside the other: winding 1 outside it, 2 inside.
+        let weighted: Vec<_> = p.patches.iter().filter(|q| q.weight != 0).collect();
+        assert_eq!(weighted.len(), 2, "{:?}", p.patches);
+        assert!(weighted.iter().all(|q| q.winding_outside == 1 && q.weight == 1));
+        assert_eq!(p.diagnostics.patches_skipped, 0);
     }
 }
 
