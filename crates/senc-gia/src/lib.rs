@@ -168,8 +168,11 @@ pub struct Diagnostics {
     pub fills_tied: usize,
     /// Face pairs with a crossing count other than 0 or 2 (should be 0).
     pub inconsistent_pairs: usize,
-    /// Faces whose chords crossed (triple points): kept whole, their segments not walls.
+    /// Faces whose chords could not be ordered or traced: kept whole, their segments not
+    /// walls.
     pub complex_faces: usize,
+    /// Crossings of chords inside a face (triple points), each a node of the cut.
+    pub triple_points: usize,
     /// Chords ending inside a face (paths to an open boundary).
     pub dangling_chords: usize,
     /// Points whose exact derivative fell back to fixed weights (edge nearly parallel to
@@ -286,6 +289,7 @@ impl GiaWorkspace {
         }
         let cut = CutMesh::new(mesh, inter);
         out.diagnostics.complex_faces = cut.n_complex_faces;
+        out.diagnostics.triple_points = cut.crossings.len();
         out.diagnostics.dangling_chords = cut.n_dangling_chords;
         let contours = paths::contours(nv, inter);
         for c in &contours {
@@ -294,7 +298,7 @@ impl GiaWorkspace {
                 out.diagnostics.open_paths += 1;
             }
         }
-        volume::node_positions(mesh, inter, options.gradient, &mut self.nodes);
+        volume::node_positions(mesh, inter, &cut, options.gradient, &mut self.nodes);
         let nodes = std::mem::take(&mut self.nodes);
         let mut node_grad = std::mem::take(&mut self.node_grad);
         let mut area_node_grad = std::mem::take(&mut self.area_node_grad);
@@ -349,10 +353,10 @@ impl GiaWorkspace {
         closed_grad.clear();
         closed_grad.resize(nv, Vec3::zeros());
         out.diagnostics.gradient_fallbacks =
-            volume::chain_to_vertices(mesh, inter, options.gradient, &node_grad, &mut closed_grad);
+            volume::chain_to_vertices(mesh, inter, &cut, options.gradient, &nodes, &mut node_grad, &mut closed_grad);
         out.gradient = closure.pull_back(&closed_grad);
         closed_grad.iter_mut().for_each(|g| *g = Vec3::zeros());
-        volume::chain_to_vertices(mesh, inter, options.gradient, &area_node_grad, &mut closed_grad);
+        volume::chain_to_vertices(mesh, inter, &cut, options.gradient, &nodes, &mut area_node_grad, &mut closed_grad);
         out.area_gradient = closure.pull_back(&closed_grad);
         self.nodes = nodes;
         self.node_grad = node_grad;

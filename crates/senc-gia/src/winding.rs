@@ -33,13 +33,14 @@
 //! A wall (one side of an intersection segment) is *inconsistent* when it has the same
 //! patch on both sides (a face whose chords could not be ordered, or a chord ending inside a
 //! face, left the surface uncut there), when no piece lies across it, or when the winding numbers across it do not differ
-//! as its exact side test says. Every patch of a group that holds an inconsistent wall gets
-//! weight 0 and is counted ([`crate::Diagnostics::patches_skipped`]), never guessed.
+//! as its exact side test says. Every patch of a tangle (patches linked through walls and
+//! shared segments) that holds an inconsistent wall gets weight 0 and is counted
+//! ([`crate::Diagnostics::patches_skipped`]): no partial sum is reported, nothing guessed.
 
-use senc_geom::cut::{CutMesh, EdgeTag};
+use senc_geom::cut::{edge_node, face_node, CutMesh, EdgeTag};
 use std::cmp::Ordering;
 
-use senc_geom::intersect::{AxisRay, SelfIntersections};
+use senc_geom::intersect::{AxisRay, SegmentEnd, SelfIntersections};
 use senc_geom::predicates::orient3d_sos;
 use senc_geom::topology::NO_FACE;
 use senc_geom::{TriMesh, Vec3};
@@ -209,8 +210,9 @@ pub(crate) struct Classified {
 /// ends there, the left of the direction within `g` holds `q` and lies on `f`'s outward side
 /// iff the sign is `+`. Both sides come from [`orient3d_sos`], the predicate that decided the
 /// crossings. At the segment's start the same reading gives the sign of the reversed
-/// direction; a loop-vertex end has no edge, so the other end is read.
-fn chord_sign(mesh: &TriMesh, inter: &SelfIntersections, f: u32, s: u32, from: u32, to: u32) -> i64 {
+/// direction; a loop-vertex end has no edge, so the other end is read. A chord edge between
+/// crossing nodes (triple points) takes the sign of its segment, along or against it.
+fn chord_sign(mesh: &TriMesh, inter: &SelfIntersections, nodes: &[Vec3], f: u32, s: u32, from: u32, to: u32) -> i64 {
     let seg = &inter.segments[s as usize];
     let g = if seg.faces[0] == f { seg.faces[1] } else { seg.faces[0] };
     let nv = mesh.n_vertices() as u32;
@@ -247,10 +249,35 @@ fn chord_sign(mesh: &TriMesh, inter: &SelfIntersections, f: u32, s: u32, from: u
             second(g, p.edge).map(|q| side(f, q) == Ordering::Less)
         }
     };
-    match towards(to).or_else(|| towards(from).map(|b| !b)) {
+    // The segment's end nodes on f; a chord edge between crossing nodes (triple points)
+    // lies on the segment between them, along it or against it.
+    let end = |e: SegmentEnd| match e {
+        SegmentEnd::LoopVertex(v) => v,
+        SegmentEnd::Point(i) => {
+            if inter.points[i as usize].face == f {
+                face_node(nv as usize, i)
+            } else {
+                edge_node(nv as usize, i)
+            }
+        }
+    };
+    let (e0, e1) = (end(seg.ends[0]), end(seg.ends[1]));
+    let along = if from == e0 || to == e1 {
+        true
+    } else if from == e1 || to == e0 {
+        false
+    } else {
+        (nodes[to as usize] - nodes[from as usize]).dot(&(nodes[e1 as usize] - nodes[e0 as usize])) > 0.0
+    };
+    let forward = match towards(e1).or_else(|| towards(e0).map(|b| !b)) {
         Some(true) => 1,
         Some(false) => -1,
-        None => 0,
+        None => return 0,
+    };
+    if along {
+        forward
+    } else {
+        -forward
     }
 }
 
@@ -275,8 +302,10 @@ pub(crate) fn classify(
             Patch { winding_outside: 0, weight: 0, skipped: false, n_faces: 0, n_pieces: 0, volume: 0.0, area: 0.0 };
             n_patches
         ];
-    // Walls `(left patch, right patch, w_left − w_right)`, one per chord edge of a piece.
+    // Walls `(left patch, right patch, w_left − w_right)`, one per chord edge of a piece, and
+    // the patches along each segment.
     let mut walls: Vec<(u32, u32, i64)> = Vec::new();
+    let mut segment_patch: Vec<(u32, u32)> = Vec::new();
     for k in 0..cut.pieces.len() {
         let id = cut.n_faces + k;
         let face = cut.pieces[k].face;
@@ -290,7 +319,7 @@ pub(crate) fn classify(
                     walls.push((patch_of[id], u32::MAX, 0));
                     continue;
                 };
-                let delta = chord_sign(mesh, inter, face, segment, from, to);
+                let delta = chord_sign(mesh, inter, nodes, face, segment, from, to);
                 walls.push((patch_of[id], patch_of[nb as usize], delta));
             }
         }
@@ -394,10 +423,84 @@ pub(crate) fn classify(
         }
     }
     // One inconsistent wall makes every winding number of its group doubtful (they were
-    // propagated through it): the whole group is skipped.
-    for (p, patch) in patches.iter_mut().enumerate() {
-        if bad_group[group_of[p] as usize] {
-            patch.skipped = true;
+    // propagated through it), and the cells those patches bound are also bounded by the
+    // patches across the same segments: the whole tangle (groups linked through shared
+    // segments) is skipped, so that no partial sum is reported as a volume.
+    // Every piece of a face that a segment crosses lies along that segment; a cut face with
+    // no chord at all was kept whole (complex) and its patch cannot be trusted.
+    for (s, seg) in inter.segments.iter().enumerate() {
+        for &f in &seg.faces {
+            for k in cut.face_pieces[f as usize].clone() {
+                let piece = &cut.pieces[k as usize];
+                let p = patch_of[cut.n_faces + k as usize];
+                segment_patch.push((s as u32, p));
+                let has_chord = piece.cycles.iter().flatten().any(|c| matches!(c.1, EdgeTag::Chord { .. }));
+                if !has_chord {
+                    bad_group[group_of[p as usize] as usize] = true;
+                }
+            }
+        }
+    }
+    // A triple point of faces f, g, h is a crossing node on each of the three faces; where
+    // the faces disagree (a crossing found on one face but not on another, in nearly
+    // degenerate configurations) the cut is not one surface and its patches are doubtful.
+    if !cut.crossings.is_empty() {
+        let other = |s: u32, f: u32| {
+            let faces = inter.segments[s as usize].faces;
+            if faces[0] == f {
+                faces[1]
+            } else {
+                faces[0]
+            }
+        };
+        let mut triples: Vec<[u32; 3]> = cut
+            .crossings
+            .iter()
+            .map(|c| {
+                let mut t = [c.face, other(c.segments[0], c.face), other(c.segments[1], c.face)];
+                t.sort_unstable();
+                t
+            })
+            .collect();
+        triples.sort_unstable();
+        let mut i = 0;
+        while i < triples.len() {
+            let mut j = i;
+            while j < triples.len() && triples[j] == triples[i] {
+                j += 1;
+            }
+            if (j - i) % 3 != 0 {
+                for &f in &triples[i] {
+                    for k in cut.face_pieces[f as usize].clone() {
+                        let p = patch_of[cut.n_faces + k as usize];
+                        bad_group[group_of[p as usize] as usize] = true;
+                    }
+                }
+            }
+            i = j;
+        }
+    }
+    if bad_group.iter().any(|&b| b) {
+        let mut tangle: Vec<u32> = (0..n_patches as u32).collect();
+        for p in 0..n_patches {
+            union(&mut tangle, p as u32, group_of[p]);
+        }
+        segment_patch.sort_unstable();
+        for w in segment_patch.windows(2) {
+            if w[0].0 == w[1].0 {
+                union(&mut tangle, w[0].1, w[1].1);
+            }
+        }
+        let mut bad_tangle = vec![false; n_patches];
+        for p in 0..n_patches {
+            if bad_group[group_of[p] as usize] {
+                bad_tangle[find(&mut tangle, p as u32) as usize] = true;
+            }
+        }
+        for (p, patch) in patches.iter_mut().enumerate() {
+            if bad_tangle[find(&mut tangle, p as u32) as usize] {
+                patch.skipped = true;
+            }
         }
     }
     if has_open_holes {

@@ -20,6 +20,10 @@
 
 use rustc_hash::FxHashMap;
 
+mod crossing;
+
+pub use crossing::ChordCrossing;
+
 use crate::intersect::{SegmentEnd, SelfIntersections};
 use crate::mesh::TriMesh;
 use crate::topology::NO_FACE;
@@ -66,9 +70,14 @@ pub struct CutMesh {
     directed: FxHashMap<(u32, u32), u32>,
     /// Chords that end inside a face (open paths); they do not split their face.
     pub n_dangling_chords: usize,
-    /// Faces where chords crossed or could not be ordered (triple points); such a face is
-    /// kept whole and its segments are not walls.
+    /// Faces whose chords could not be ordered or traced; such a face is kept whole and its
+    /// segments are not walls.
     pub n_complex_faces: usize,
+    /// Number of intersection points (crossing nodes are numbered after their nodes).
+    pub n_points: usize,
+    /// Crossings of chords inside a face (triple points); crossing `k` is node
+    /// [`CutMesh::crossing_node`]`(k)`.
+    pub crossings: Vec<ChordCrossing>,
 }
 
 /// Edge node id of intersection point `i`.
@@ -82,14 +91,18 @@ pub fn face_node(n_vertices: usize, i: u32) -> u32 {
 }
 
 /// The original vertices and weights a node is a combination of (with the intersection's
-/// current edge parameter and barycentrics held fixed).
+/// current edge parameter and barycentrics held fixed); empty for a crossing node, whose
+/// fixed weights are [`ChordCrossing::bary`] in its face.
 pub fn node_weights(mesh: &TriMesh, inter: &SelfIntersections, node: u32) -> Vec<(u32, f64)> {
     let nv = mesh.n_vertices() as u32;
     if node < nv {
         return vec![(node, 1.0)];
     }
     let i = ((node - nv) / 2) as usize;
-    let p = &inter.points[i];
+    let Some(p) = inter.points.get(i) else {
+        // A crossing node: see `CutMesh::crossings` for its weights.
+        return Vec::new();
+    };
     if (node - nv) % 2 == 0 {
         let [a, b] = mesh.topology().edges()[p.edge as usize];
         vec![(a, 1.0 - p.t), (b, p.t)]
@@ -135,7 +148,13 @@ impl CutMesh {
             }
         }
         halves.sort_by_key(|h| (h.0, h.1.segment));
-        let mut cut = CutMesh { n_vertices: nv, n_faces: nf, face_pieces: vec![0..0; nf], ..Default::default() };
+        let mut cut = CutMesh {
+            n_vertices: nv,
+            n_faces: nf,
+            n_points: inter.points.len(),
+            face_pieces: vec![0..0; nf],
+            ..Default::default()
+        };
         let mut i = 0;
         while i < halves.len() {
             let face = halves[i].0;
@@ -159,6 +178,21 @@ impl CutMesh {
             }
         }
         cut
+    }
+
+    /// First crossing node id: `n_vertices + 2 n_points`.
+    pub fn crossing_base(&self) -> u32 {
+        (self.n_vertices + 2 * self.n_points) as u32
+    }
+
+    /// Node id of crossing `k`.
+    pub fn crossing_node(&self, k: usize) -> u32 {
+        self.crossing_base() + k as u32
+    }
+
+    /// Total number of nodes: vertices, two per intersection point, one per crossing.
+    pub fn n_nodes(&self) -> usize {
+        self.n_vertices + 2 * self.n_points + self.crossings.len()
     }
 
     /// Whether face `f` was split.
@@ -265,6 +299,15 @@ impl CutMesh {
             return self.push_whole(face, frame.fv);
         }
         let events = perimeter_events(&frame, &proper);
+        let edges = crossing::run_edges(&proper, &walk.loops);
+        let crossings = crossing::find_crossings(&frame, &edges);
+        if !crossings.is_empty() {
+            if !self.split_crossing_face(&frame, face, &events, &edges, &crossings) {
+                self.n_complex_faces += 1;
+                self.push_whole(face, frame.fv);
+            }
+            return;
+        }
         let first_piece = self.pieces.len();
         for cycle in trace_cycles(&events, &proper) {
             self.pieces.push(Piece { face, cycles: vec![cycle] });
@@ -305,7 +348,7 @@ impl CutMesh {
 }
 
 /// One face being split: its corners and the local coordinates of its nodes.
-struct FaceFrame<'a> {
+pub(crate) struct FaceFrame<'a> {
     mesh: &'a TriMesh,
     inter: &'a SelfIntersections,
     nv: u32,
@@ -315,7 +358,7 @@ struct FaceFrame<'a> {
 impl FaceFrame<'_> {
     /// Local 2D coordinates of a node of this face: corner 0 = (0,0), corner 1 = (1,0),
     /// corner 2 = (0,1).
-    fn local(&self, node: u32) -> [f64; 2] {
+    pub(crate) fn local(&self, node: u32) -> [f64; 2] {
         let (nv, fv) = (self.nv, self.fv);
         let bary: [f64; 3] = if node < nv {
             let k = fv.iter().position(|&v| v == node).unwrap_or(0);
@@ -462,10 +505,10 @@ fn walk_segments(frame: &FaceFrame, segs: &[HalfSeg]) -> Walk {
 
 /// A corner or chord end on the perimeter, at position `s` (see
 /// [`FaceFrame::perimeter_position`]), ordered by `(s, tie, node)`.
-struct Event {
-    s: f64,
+pub(crate) struct Event {
+    pub(crate) s: f64,
     tie: f64,
-    node: u32,
+    pub(crate) node: u32,
     /// Chord index, and whether this is its start.
     chord: Option<(usize, bool)>,
 }
