@@ -71,8 +71,8 @@ pub(super) fn torus_bench() -> Result<TriMesh, ShapeError> {
 /// Two equal boxes, the second shifted by half its width along x: overlap 0.5 m³ (their
 /// faces at y = 0, 1 and z = 0, 1 are coplanar, hence the jitter).
 pub(super) fn equal_boxes_half() -> Result<TriMesh, ShapeError> {
-    let a = grid_box(v(0.0, 0.0, 0.0), v(1.0, 1.0, 1.0), 6)?;
-    let b = grid_box(v(0.5, 0.0, 0.0), v(1.5, 1.0, 1.0), 6)?;
+    let a = grid_box(v(0.0, 0.0, 0.0), v(1.0, 1.0, 1.0), 7)?;
+    let b = grid_box(v(0.5, 0.0, 0.0), v(1.5, 1.0, 1.0), 7)?;
     jittered(merge(&a, &b))
 }
 /// A capped 24-gon tube of radius 0.2 along x through a box 0.5 thick: the tube's wall
@@ -81,15 +81,15 @@ pub(super) fn tube_through_box() -> Result<TriMesh, ShapeError> {
     let t = tube(0.2, 2.0, 24, 8, Caps::Fan)?;
     let rot = Rotation3::from_euler_angles(0.0, std::f64::consts::FRAC_PI_2, 0.0);
     let t = rigid_transform(&t, &rot, &v(-1.0, 0.0, 0.0))?;
-    let b = grid_box(v(-0.25, -0.6, -0.6), v(0.25, 0.6, 0.6), 6)?;
+    let b = grid_box(v(-0.2, -0.6, -0.6), v(0.3, 0.6, 0.6), 8)?;
     jittered(merge(&t, &b))
 }
 /// Three boxes overlapping pairwise with a common core: winding 3 there, 2 where exactly
 /// two overlap. Volume |A∩B| + |A∩C| + |B∩C| − 2 |A∩B∩C|.
 pub(super) fn nested_boxes() -> Result<TriMesh, ShapeError> {
-    let a = grid_box(v(0.0, 0.0, 0.0), v(1.0, 1.0, 1.0), 4)?;
-    let b = grid_box(v(0.3, 0.2, 0.1), v(1.3, 1.2, 1.1), 4)?;
-    let c = grid_box(v(0.6, -0.3, 0.4), v(1.6, 0.7, 1.4), 4)?;
+    let a = grid_box(v(0.0, 0.0, 0.0), v(1.0, 1.0, 1.0), 6)?;
+    let b = grid_box(v(0.3, 0.2, 0.1), v(1.3, 1.2, 1.1), 6)?;
+    let c = grid_box(v(0.6, -0.27, 0.4), v(1.6, 0.73, 1.4), 6)?;
     jittered(merge(&merge(&a, &b)?, &c))
 }
 /// A closed tube bent back by 160° so that the second leg passes through the elbow's inner
@@ -206,19 +206,19 @@ pub const FIXTURES: &[Fixture] = &[
     },
     Fixture {
         name: "equal_boxes_half",
-        description: "merge(grid_box((0,0,0),(1,1,1),6), grid_box((0.5,0,0),(1.5,1,1),6)) jittered; overlap 0.5 m^3",
+        description: "merge(grid_box((0,0,0),(1,1,1),7), grid_box((0.5,0,0),(1.5,1,1),7)) jittered; overlap 0.5 m^3",
         close_holes: false,
         make: equal_boxes_half,
     },
     Fixture {
         name: "tube_through_box",
-        description: "tube(0.2, 2, 24, 8, fan caps) along x from -1 to 1, merged with grid_box((-0.25,-0.6,-0.6),(0.25,0.6,0.6),6), jittered; overlap 24-gon area x 0.5 = 0.06 m^3",
+        description: "tube(0.2, 2, 24, 8, fan caps) along x from -1 to 1, merged with grid_box((-0.2,-0.6,-0.6),(0.3,0.6,0.6),8), jittered; overlap 24-gon area x 0.5 = 0.06 m^3",
         close_holes: false,
         make: tube_through_box,
     },
     Fixture {
         name: "nested_boxes",
-        description: "unit grid boxes (n 4) at (0,0,0), (0.3,0.2,0.1), (0.6,-0.3,0.4), jittered; winding 3 in the common core",
+        description: "unit grid boxes (n 6) at (0,0,0), (0.3,0.2,0.1), (0.6,-0.27,0.4), jittered (no face plane through another box's lattice); winding 3 in the common core",
         close_holes: false,
         make: nested_boxes,
     },
