@@ -236,7 +236,10 @@ fn committed_fixture_answers_match_the_generators() {
         assert!(pairs.iter().all(|p| p[0] < p[1] && p[1] < m.n_faces() as u64), "{}", f.name);
         if let (Some(vol), Some(exact)) = (json["penetration_volume_m3"].as_f64(), json["analytic_volume_m3"].as_f64())
         {
-            assert!((vol - exact).abs() <= 1e-12 * exact.max(1.0), "{}: {vol} vs {exact}", f.name);
+            // A jittered fixture's analytic answer is that of the mesh before the jitter,
+            // which moves the volume by about (surface area) × 1e-9 × (diagonal).
+            let tol = if f.description.contains("jittered") { 1e-8 * exact } else { 1e-12 * exact.max(1.0) };
+            assert!((vol - exact).abs() <= tol, "{}: {vol} vs {exact}", f.name);
         }
         checked += 1;
     }
