@@ -241,7 +241,9 @@ impl GiaWorkspace {
         let mesh = closure.mesh();
         Self {
             n_faces: mesh.n_faces(),
-            intersector: SelfIntersector::new(mesh).with_groups(closure.fan_groups()),
+            // Fans are tested against each other too: a fan over a tangled hole can cross
+            // itself, and the winding numbers change across those crossings as across any.
+            intersector: SelfIntersector::new(mesh),
             open_loops: mesh.topology().boundary_loops().to_vec(),
             flood: flood::Scratch::default(),
             winding: winding::Scratch::default(),
