@@ -312,11 +312,12 @@ impl SelfIntersector {
         }
     }
 
-    /// Faces sharing a nonzero `groups[f]` are not tested against each other. Used for the
-    /// fan caps of closed holes: a fan's triangles share its centroid and are (nearly)
-    /// coplanar, so testing them against each other is all exact-zero work and could only
-    /// report crossings of the virtual cap with itself. Fans are still tested against every
-    /// other face. A `groups` of the wrong length is ignored.
+    /// Faces sharing a nonzero `groups[f]` are not tested against each other, e.g. the fan
+    /// caps of closed holes when crossings of a cap with itself are not wanted (a fan's
+    /// triangles share its centroid; over a tangled hole they can cross each other, and a
+    /// winding-number analysis needs those crossings, so senc-gia does not use groups).
+    /// Grouped faces are still tested against every other face. A `groups` of the wrong
+    /// length is ignored.
     pub fn with_groups(mut self, groups: Vec<u32>) -> Self {
         if groups.len() == self.faces.len() {
             self.slot_groups = self.order.iter().map(|&f| groups[f as usize]).collect();
