@@ -18,6 +18,7 @@ senc_geom::shapes::FIXTURES) this writes OUT_DIR/<name>.json with:
 Needs: pip install numpy libigl (2.6.x has igl.copyleft.cgal). Tests never run this.
 """
 import json
+import math
 import os
 import sys
 import time
@@ -37,6 +38,9 @@ ANALYTIC = {
     'boxes_apart_jitter': 0.0,
     'sphere_l5': 0.0,
     'torus_bench': 0.0,
+    'equal_boxes_half': 0.5,
+    'tube_through_box': 12 * 0.2**2 * math.sin(2 * math.pi / 24) * 0.5,
+    'nested_boxes': 0.7 * 0.8 * 0.9 + 0.4 * 0.73 * 0.6 + 0.7 * 0.53 * 0.7 - 2 * 0.4 * 0.53 * 0.6,
 }
 # Open sheets: no enclosed volume to measure.
 NO_VOLUME = {'folded_sheet_grid', 'folded_sheet_jitter'}

@@ -1,6 +1,7 @@
 //! `cargo xtask <command>`: every command senc users run.
 //!
-//! - `volume MESH.obj [--close-holes] [--leave-open N ...] [--json]`: the penetration volume
+//! - `volume MESH.obj [--close-holes] [--leave-open N ...] [--smaller-side] [--repeat N] [--json]`: the
+//!   penetration volume
 //!   (SENC's self-collision energy) with regions, paths, diagnostics and time taken.
 //! - `check-mesh MESH.obj [--close-holes] [--json]`: validate a mesh and print its topology
 //!   (vertices, faces, boundary loops, components, closure).
@@ -69,9 +70,15 @@ enum Command {
         /// Gradient with SENC's fixed barycentric weights instead of the exact one.
         #[arg(long)]
         fixed_barycentric: bool,
-        /// Decide the penetrating side by area instead of face count.
+        /// SENC's smaller-side flood fill instead of winding numbers (ablation).
+        #[arg(long)]
+        smaller_side: bool,
+        /// With --smaller-side: decide the penetrating side by area instead of face count.
         #[arg(long)]
         area_rule: bool,
+        /// Warm calls on the same workspace after the first (their median is `time_ms`).
+        #[arg(long, default_value_t = 0)]
+        repeat: usize,
     },
     /// Energy of a predicted frame x[t+1], term by term (joules).
     Energy(energy::Args),
@@ -170,16 +177,25 @@ fn main() -> std::process::ExitCode {
             println!();
             return std::process::ExitCode::SUCCESS;
         }
-        Some(Command::Volume { mesh, close_holes, leave_open, json, fixed_barycentric, area_rule }) => {
-            volume::run(&volume::VolumeArgs {
-                mesh: &mesh,
-                close_holes,
-                leave_open: &leave_open,
-                json,
-                fixed_barycentric,
-                area_rule,
-            })
-        }
+        Some(Command::Volume {
+            mesh,
+            close_holes,
+            leave_open,
+            json,
+            fixed_barycentric,
+            smaller_side,
+            area_rule,
+            repeat,
+        }) => volume::run(&volume::VolumeArgs {
+            mesh: &mesh,
+            close_holes,
+            leave_open: &leave_open,
+            json,
+            fixed_barycentric,
+            smaller_side,
+            area_rule,
+            repeat,
+        }),
         Some(Command::CheckMesh(args)) => check_mesh::run(args),
         Some(Command::Energy(args)) => energy::run(args),
         Some(Command::Data { out, work }) => data::run(&out, &work),

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use senc_geom::{close_holes, obj::read_obj, HoleSelection};
-use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, SizeRule};
+use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, SizeRule, VolumeRule};
 
 /// Options of the command.
 pub struct VolumeArgs<'a> {
@@ -14,7 +14,10 @@ pub struct VolumeArgs<'a> {
     pub leave_open: &'a [usize],
     pub json: bool,
     pub fixed_barycentric: bool,
+    pub smaller_side: bool,
     pub area_rule: bool,
+    /// Warm calls after the first, on the same workspace (as a training step makes them).
+    pub repeat: usize,
 }
 
 pub fn run(args: &VolumeArgs) -> Result<()> {
@@ -31,25 +34,44 @@ pub fn run(args: &VolumeArgs) -> Result<()> {
     let closure = close_holes(&mesh, &selection).context("closing holes")?;
     let options = GiaOptions {
         gradient: if args.fixed_barycentric { GradientMode::FixedBarycentric } else { GradientMode::Exact },
+        rule: if args.smaller_side { VolumeRule::SmallerSide } else { VolumeRule::Winding },
         size_rule: if args.area_rule { SizeRule::Area } else { SizeRule::Faces },
     };
     let start = Instant::now();
     let mut ws = GiaWorkspace::new(&closure);
     let pen = ws.penetration(&closure, &options)?;
-    let time_ms = start.elapsed().as_secs_f64() * 1e3;
+    let first_ms = start.elapsed().as_secs_f64() * 1e3;
+    let mut warm: Vec<f64> = Vec::with_capacity(args.repeat);
+    for _ in 0..args.repeat {
+        let t = Instant::now();
+        let again = ws.penetration(&closure, &options)?;
+        warm.push(t.elapsed().as_secs_f64() * 1e3);
+        anyhow::ensure!(again.volume == pen.volume, "a warm call gave {} instead of {}", again.volume, pen.volume);
+    }
+    warm.sort_by(f64::total_cmp);
+    let time_ms = if warm.is_empty() { first_ms } else { warm[warm.len() / 2] };
+    let weighted: Vec<_> = pen.patches.iter().filter(|p| p.weight != 0).collect();
     if args.json {
         let v = serde_json::json!({
             "volume_m3": pen.volume,
             "volume_cm3": pen.volume * 1e6,
             "area_m2": pen.area,
+            "rule": options.rule,
+            "patches": pen.patches.len(),
+            "weighted_patches": weighted,
             "regions": pen.regions.len(),
             "paths": pen.paths.len(),
             "region_volumes_m3": pen.regions.iter().map(|r| r.volume).collect::<Vec<_>>(),
             "path_kinds": pen.paths.iter().map(|p| p.kind).collect::<Vec<_>>(),
             "holes_closed": closure.centroids().len(),
             "holes_open": closure.open_holes(),
+            "faces": closure.mesh().n_faces(),
             "diagnostics": pen.diagnostics,
+            "first_ms": first_ms,
             "time_ms": time_ms,
+            "warm_calls": warm.len(),
+            "warm_min_ms": warm.first(),
+            "warm_max_ms": warm.last(),
         });
         println!("{v}");
     } else {
@@ -61,8 +83,19 @@ pub fn run(args: &VolumeArgs) -> Result<()> {
             closure.centroids().len(),
             closure.open_holes().len()
         );
-        println!("penetration volume: {:.6e} m³ = {:.4} cm³", pen.volume, pen.volume * 1e6);
-        println!("regions: {}, paths: {}, penetrating area {:.4e} m²", pen.regions.len(), pen.paths.len(), pen.area);
+        println!("penetration volume: {:.6e} m³ = {:.4} cm³ ({:?} rule)", pen.volume, pen.volume * 1e6, options.rule);
+        println!("patches: {}, paths: {}, penetrating area {:.4e} m²", pen.patches.len(), pen.paths.len(), pen.area);
+        for (i, p) in pen.patches.iter().enumerate().filter(|(_, p)| p.weight != 0 || p.skipped) {
+            println!(
+                "  patch {i}: winding {} outside, weight {}, {:.6e} m³, {} faces + {} pieces{}",
+                p.winding_outside,
+                p.weight,
+                p.volume,
+                p.n_faces,
+                p.n_pieces,
+                if p.skipped { " (skipped)" } else { "" }
+            );
+        }
         for (i, r) in pen.regions.iter().enumerate() {
             println!(
                 "  region {i}: {:.6e} m³ over {} faces ({} sub-faces), paths {:?}",
@@ -73,7 +106,10 @@ pub fn run(args: &VolumeArgs) -> Result<()> {
             );
         }
         println!("diagnostics: {:?}", pen.diagnostics);
-        println!("time: {time_ms:.2} ms (BVH build + detection + GIA + gradient)");
+        println!(
+            "time: first call {first_ms:.2} ms (BVH build + detection + GIA + gradient); median of {} warm calls {time_ms:.3} ms",
+            warm.len()
+        );
     }
     Ok(())
 }

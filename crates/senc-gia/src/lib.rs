@@ -3,12 +3,27 @@
 //!
 //! Given a garment closed by fans ([`senc_geom::Closure`]), [`GiaWorkspace::penetration`]
 //! finds where the surface passes through itself (exact predicates, `senc_geom::intersect`),
-//! cuts the faces along the intersection segments (`senc_geom::cut`), links the segments
-//! into contours ([`paths`]), flood-fills both sides of each contour in lockstep and keeps the
-//! side that finishes first, and sums `|Σ signed tetrahedra|` over each group of contours
-//! that bound one pocket (twin contours of two crossing sheets, or one contour of a fold).
+//! cuts the faces along every intersection segment at once (`senc_geom::cut`) and measures
+//! the volume of space that the surface covers twice or more, or inside out (winding number
+//! `w ≥ 2` or `w ≤ −1`). By default ([`VolumeRule::Winding`], module [`winding`]) each patch
+//! of the cut surface is classified by one exact ray query and the volume is a weighted sum
+//! of the tetrahedra the patches span with the origin: exact on any tangle, with no flood
+//! fill and no tie rule. SENC's rule ([`VolumeRule::SmallerSide`]: flood-fill both sides of
+//! each contour and keep the one that finishes first) stays available for ablation.
 //! The gradient reaches every original garment vertex, through the cut nodes (exactly, or
 //! with SENC's fixed barycentric weights) and through the fan centroids.
+//!
+//! # Holes left open
+//! The winding number is defined for a closed surface. For a hole left open (not fanned by
+//! the closure) the winding rule measures the surface closed by a *virtual* fan over the
+//! hole (the fan [`senc_geom::close_holes`] would add): its ray queries count the fan, so
+//! winding numbers are those of the fan-closed surface, but the fan is neither tested for
+//! crossings nor part of the sum. The volume is therefore the fan-closed surface's volume
+//! whenever nothing passes through the hole's fan and no penetrated region reaches the hole.
+//! A patch of nonzero weight that reaches an open hole, and the two sides of an
+//! intersection curve that runs into one (which the cut cannot separate), are skipped and
+//! counted in [`Diagnostics::patches_skipped`]; nothing is guessed. Close every hole
+//! ([`senc_geom::HoleSelection::All`], the default of every config) for exact answers.
 //!
 //! # Example
 //! ```
@@ -33,14 +48,17 @@
 //! assert!((pen.volume - 0.5 * 0.75 * 0.75).abs() < 1e-9);
 //! ```
 
+mod flood;
 pub mod paths;
 pub mod volume;
+pub mod winding;
 
 use senc_geom::cut::CutMesh;
-use senc_geom::intersect::{SelfIntersections, SelfIntersector};
+use senc_geom::intersect::{ray_winding_brute, SelfIntersections, SelfIntersector};
 use senc_geom::{Closure, Vec3};
 
 pub use paths::{Contour, PathKind};
+pub use winding::Patch;
 
 /// How the gradient treats intersection points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -55,7 +73,20 @@ pub enum GradientMode {
     FixedBarycentric,
 }
 
-/// How the flood fill decides which side of a contour is the smaller (penetrating) one.
+/// Which points of space count as penetrated, and how they are found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VolumeRule {
+    /// Winding number `≥ 2` or `≤ −1`, by classifying the patches of the cut surface with
+    /// exact ray queries (module [`winding`]): exact on any tangle of a closed surface.
+    #[default]
+    Winding,
+    /// SENC's rule: per group of contours, the smaller side found by lockstep flood fills
+    /// (see [`SizeRule`]); skips contours where it has no answer.
+    SmallerSide,
+}
+
+/// How the flood fill of [`VolumeRule::SmallerSide`] decides which side of a contour is the smaller (penetrating) one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SizeRule {
@@ -74,11 +105,13 @@ pub enum SizeRule {
 pub struct GiaOptions {
     /// Gradient definition.
     pub gradient: GradientMode,
-    /// Region size rule.
+    /// Which rule measures the volume.
+    pub rule: VolumeRule,
+    /// Region size rule of [`VolumeRule::SmallerSide`] (unused by the winding rule).
     pub size_rule: SizeRule,
 }
 
-/// One penetrating pocket: the filled sides of a group of contours that bound it.
+/// One penetrating pocket of [`VolumeRule::SmallerSide`]: the filled sides of a group of contours that bound it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Region {
     /// Indices into [`Penetration::paths`] of the contours that bound it.
@@ -100,7 +133,7 @@ pub struct PathInfo {
     pub kind: PathKind,
     /// Number of segment preimages it is made of.
     pub n_steps: usize,
-    /// The region it bounds, if its fill succeeded.
+    /// The region it bounds, if its fill succeeded ([`VolumeRule::SmallerSide`] only).
     pub region: Option<usize>,
 }
 
@@ -113,35 +146,57 @@ pub struct Diagnostics {
     pub intersecting_pairs: usize,
     /// Paths ending at an open boundary (not filled).
     pub open_paths: usize,
-    /// Contours whose two fills met (the contour does not separate the surface): skipped.
+    /// Patches of the cut surface ([`VolumeRule::Winding`]).
+    pub patches: usize,
+    /// Patches skipped as inconsistent: an intersection segment with the patch on both
+    /// sides (the surface was not cut there: a complex face or a dangling chord), or
+    /// winding numbers across a segment that differ by other than one ([`winding`]).
+    pub patches_skipped: usize,
+    /// Segment sides where that check failed.
+    pub inconsistent_walls: usize,
+    /// Ray queries made (one per group of patches linked by intersection segments, more
+    /// where a probe's origin lay exactly on another face).
+    pub winding_rays: usize,
+    /// Groups of patches whose every probe origin lay exactly on another face: their
+    /// patches are skipped.
+    pub unresolved_groups: usize,
+    /// Contours whose two fills met (the contour does not separate the surface): skipped
+    /// ([`VolumeRule::SmallerSide`]).
     pub fills_met: usize,
-    /// Contours whose two sides finished in the same step: skipped.
+    /// Contours whose two sides finished in the same step: skipped
+    /// ([`VolumeRule::SmallerSide`]).
     pub fills_tied: usize,
     /// Face pairs with a crossing count other than 0 or 2 (should be 0).
     pub inconsistent_pairs: usize,
-    /// Faces whose chords crossed (triple points): kept whole, their segments not walls.
+    /// Faces whose chords could not be ordered or traced: kept whole, their segments not
+    /// walls.
     pub complex_faces: usize,
+    /// Crossings of chords inside a face (triple points), each a node of the cut.
+    pub triple_points: usize,
     /// Chords ending inside a face (paths to an open boundary).
     pub dangling_chords: usize,
     /// Points whose exact derivative fell back to fixed weights (edge nearly parallel to
     /// the face).
     pub gradient_fallbacks: usize,
-    /// Regions dropped because a contour of their group failed.
+    /// Regions dropped because a contour of their group failed ([`VolumeRule::SmallerSide`]).
     pub groups_skipped: usize,
 }
 
 /// Result of a penetration query.
 #[derive(Debug, Clone, Default)]
 pub struct Penetration {
-    /// Total penetration volume, m³ (sum over regions).
+    /// Total penetration volume, m³.
     pub volume: f64,
     /// Gradient of `volume` with respect to every original (unclosed) vertex, m².
     pub gradient: Vec<Vec3>,
-    /// Area of the penetrating faces (the paper's "w. area loss" ablation), m².
+    /// Area of the surface bounding the penetrated space (the paper's "w. area loss"
+    /// ablation): the patches of nonzero weight, or the filled regions, m².
     pub area: f64,
     /// Gradient of `area` with respect to every original vertex, m.
     pub area_gradient: Vec<Vec3>,
-    /// The pockets.
+    /// The patches of the cut surface ([`VolumeRule::Winding`]).
+    pub patches: Vec<Patch>,
+    /// The pockets ([`VolumeRule::SmallerSide`]).
     pub regions: Vec<Region>,
     /// The contours.
     pub paths: Vec<PathInfo>,
@@ -163,13 +218,15 @@ pub enum GiaError {
 }
 
 /// Reusable state between queries on one closed mesh whose positions change: the BVH (refit,
-/// not rebuilt) and the flood-fill buffers.
+/// not rebuilt) and the labelling, fill and gradient buffers.
 #[derive(Debug)]
 pub struct GiaWorkspace {
     n_faces: usize,
     intersector: SelfIntersector,
-    mark: Vec<u8>,
-    touched: Vec<u32>,
+    /// Boundary loops of the closed mesh (holes left open), for the rays' virtual fans.
+    open_loops: Vec<Vec<u32>>,
+    flood: flood::Scratch,
+    winding: winding::Scratch,
     nodes: Vec<Vec3>,
     /// Gradient buffers reused between calls: per cut-mesh node (volume, area) and per
     /// closed-mesh vertex.
@@ -178,19 +235,18 @@ pub struct GiaWorkspace {
     closed_grad: Vec<Vec3>,
 }
 
-const UNSEEN: u8 = 0;
-const LEFT: u8 = 1;
-const RIGHT: u8 = 2;
-
 impl GiaWorkspace {
     /// A workspace for meshes with `closure`'s topology.
     pub fn new(closure: &Closure) -> Self {
         let mesh = closure.mesh();
         Self {
             n_faces: mesh.n_faces(),
-            intersector: SelfIntersector::new(mesh).with_groups(closure.fan_groups()),
-            mark: Vec::new(),
-            touched: Vec::new(),
+            // Fans are tested against each other too: a fan over a tangled hole can cross
+            // itself, and the winding numbers change across those crossings as across any.
+            intersector: SelfIntersector::new(mesh),
+            open_loops: mesh.topology().boundary_loops().to_vec(),
+            flood: flood::Scratch::default(),
+            winding: winding::Scratch::default(),
             nodes: Vec::new(),
             node_grad: Vec::new(),
             area_node_grad: Vec::new(),
@@ -205,95 +261,104 @@ impl GiaWorkspace {
             return Err(GiaError::WrongMesh { expected: self.n_faces, got: mesh.n_faces() });
         }
         let inter = self.intersector.find(mesh);
-        Ok(self.analyse(closure, &inter, options))
+        Ok(self.analyse_with(closure, &inter, options, true))
     }
 
-    /// The analysis of a given intersection set (exposed for tests and tools).
+    /// The analysis of a given intersection set (exposed for tests and tools). The winding
+    /// rule's ray queries test every face here (the BVH's boxes may belong to other
+    /// positions), so this is slower than [`Self::penetration`].
     pub fn analyse(&mut self, closure: &Closure, inter: &SelfIntersections, options: &GiaOptions) -> Penetration {
+        self.analyse_with(closure, inter, options, false)
+    }
+
+    fn analyse_with(
+        &mut self,
+        closure: &Closure,
+        inter: &SelfIntersections,
+        options: &GiaOptions,
+        bvh_current: bool,
+    ) -> Penetration {
         let mesh = closure.mesh();
         let nv = mesh.n_vertices();
         let mut out = Penetration::default();
         out.diagnostics.candidate_pairs = inter.n_candidate_pairs;
         out.diagnostics.inconsistent_pairs = inter.n_inconsistent_pairs;
         out.diagnostics.intersecting_pairs = inter.segments.len();
-        if inter.segments.is_empty() {
+        if inter.segments.is_empty() && options.rule == VolumeRule::SmallerSide {
             out.gradient = vec![Vec3::zeros(); closure.n_original()];
             out.area_gradient = vec![Vec3::zeros(); closure.n_original()];
             return out;
         }
         let cut = CutMesh::new(mesh, inter);
         out.diagnostics.complex_faces = cut.n_complex_faces;
+        out.diagnostics.triple_points = cut.crossings.len();
         out.diagnostics.dangling_chords = cut.n_dangling_chords;
         let contours = paths::contours(nv, inter);
-        volume::node_positions(mesh, inter, options.gradient, &mut self.nodes);
-        let nodes = std::mem::take(&mut self.nodes);
-
-        // Fill each closed contour; remember the smaller side.
-        let mut sides: Vec<Option<Vec<u32>>> = Vec::with_capacity(contours.len());
         for c in &contours {
             out.paths.push(PathInfo { kind: c.kind, n_steps: c.steps.len(), region: None });
             if c.kind == PathKind::OpenBoundary {
                 out.diagnostics.open_paths += 1;
-                sides.push(None);
-                continue;
             }
-            let side = self.fill(mesh, &cut, inter, c, &nodes, options.size_rule, &mut out.diagnostics);
-            sides.push(side);
         }
-
-        // Group contours that share intersection points (twins bound one pocket).
-        let groups = group_contours(&contours, inter.points.len());
+        volume::node_positions(mesh, inter, &cut, options.gradient, &mut self.nodes);
+        let nodes = std::mem::take(&mut self.nodes);
         let mut node_grad = std::mem::take(&mut self.node_grad);
         let mut area_node_grad = std::mem::take(&mut self.area_node_grad);
         for g in [&mut node_grad, &mut area_node_grad] {
             g.clear();
             g.resize(nodes.len(), Vec3::zeros());
         }
-        for group in groups {
-            if group.iter().any(|&c| sides[c].is_none()) {
-                if group.iter().any(|&c| contours[c].kind != PathKind::OpenBoundary) {
-                    out.diagnostics.groups_skipped += 1;
-                }
-                continue;
+        match options.rule {
+            VolumeRule::Winding => {
+                let (intersector, loops) = (&self.intersector, &self.open_loops);
+                let has_open = !loops.is_empty();
+                let classified =
+                    winding::classify(mesh, &cut, inter, &nodes, &mut self.winding, has_open, |ray, skip| {
+                        if bvh_current {
+                            intersector.ray_winding(mesh, ray, skip, loops)
+                        } else {
+                            ray_winding_brute(mesh, ray, skip, loops)
+                        }
+                    });
+                out.diagnostics.inconsistent_walls = classified.inconsistent_walls;
+                out.diagnostics.winding_rays = classified.rays;
+                out.diagnostics.unresolved_groups = classified.unresolved;
+                out.patches = classified.patches;
+                out.diagnostics.patches = out.patches.len();
+                out.diagnostics.patches_skipped = out.patches.iter().filter(|p| p.skipped).count();
+                winding::accumulate(
+                    mesh,
+                    &cut,
+                    &nodes,
+                    &self.winding,
+                    &mut out.patches,
+                    &mut node_grad,
+                    &mut area_node_grad,
+                );
+                out.volume = out.patches.iter().map(|p| p.volume).sum();
+                out.area = out.patches.iter().map(|p| p.area).sum();
             }
-            let mut ids: Vec<u32> = group.iter().flat_map(|&c| sides[c].clone().unwrap_or_default()).collect();
-            ids.sort_unstable();
-            ids.dedup();
-            let signed: f64 = ids.iter().map(|&id| volume::signed_volume(mesh, &cut, &nodes, id)).sum();
-            let area: f64 = ids.iter().map(|&id| volume::area(mesh, &cut, &nodes, id)).sum();
-            let sign = if signed >= 0.0 { 1.0 } else { -1.0 };
-            for &id in &ids {
-                volume::add_volume_gradient(mesh, &cut, &nodes, id, sign, &mut node_grad);
-                volume::add_area_gradient(mesh, &cut, &nodes, id, 1.0, &mut area_node_grad);
-            }
-            let mut faces: Vec<u32> = ids
-                .iter()
-                .map(|&id| if (id as usize) < cut.n_faces { id } else { cut.pieces[id as usize - cut.n_faces].face })
-                .collect();
-            faces.sort_unstable();
-            faces.dedup();
-            let region = out.regions.len();
-            for &c in &group {
-                out.paths[c].region = Some(region);
-            }
-            out.regions.push(Region {
-                paths: group.clone(),
-                faces,
-                n_sub_faces: ids.iter().filter(|&&id| id as usize >= cut.n_faces).count(),
-                volume: signed.abs(),
-                area,
-            });
-            out.volume += signed.abs();
-            out.area += area;
+            VolumeRule::SmallerSide => flood::regions(
+                &mut self.flood,
+                mesh,
+                &cut,
+                inter,
+                &contours,
+                &nodes,
+                options.size_rule,
+                &mut out,
+                &mut node_grad,
+                &mut area_node_grad,
+            ),
         }
         let mut closed_grad = std::mem::take(&mut self.closed_grad);
         closed_grad.clear();
         closed_grad.resize(nv, Vec3::zeros());
         out.diagnostics.gradient_fallbacks =
-            volume::chain_to_vertices(mesh, inter, options.gradient, &node_grad, &mut closed_grad);
+            volume::chain_to_vertices(mesh, inter, &cut, options.gradient, &nodes, &mut node_grad, &mut closed_grad);
         out.gradient = closure.pull_back(&closed_grad);
         closed_grad.iter_mut().for_each(|g| *g = Vec3::zeros());
-        volume::chain_to_vertices(mesh, inter, options.gradient, &area_node_grad, &mut closed_grad);
+        volume::chain_to_vertices(mesh, inter, &cut, options.gradient, &nodes, &mut area_node_grad, &mut closed_grad);
         out.area_gradient = closure.pull_back(&closed_grad);
         self.nodes = nodes;
         self.node_grad = node_grad;
@@ -301,149 +366,4 @@ impl GiaWorkspace {
         self.closed_grad = closed_grad;
         out
     }
-
-    /// Lockstep flood fill of both sides of contour `c`; returns the fill ids of the side
-    /// that finished first, or `None` (with a diagnostic) when the fills meet or tie.
-    #[allow(clippy::too_many_arguments)]
-    fn fill(
-        &mut self,
-        mesh: &senc_geom::TriMesh,
-        cut: &CutMesh,
-        inter: &SelfIntersections,
-        c: &Contour,
-        nodes: &[Vec3],
-        rule: SizeRule,
-        diag: &mut Diagnostics,
-    ) -> Option<Vec<u32>> {
-        let n_ids = cut.n_fill_ids();
-        if self.mark.len() < n_ids {
-            self.mark.resize(n_ids, UNSEEN);
-        }
-        for &t in &self.touched {
-            self.mark[t as usize] = UNSEEN;
-        }
-        self.touched.clear();
-        // Walls of this contour: (segment, side) preimages.
-        let mut walls: Vec<(u32, u8)> = c.steps.iter().map(|s| (s.segment, s.side)).collect();
-        walls.sort_unstable();
-        let is_wall = |segment: u32, face: u32| -> bool {
-            let seg = &inter.segments[segment as usize];
-            let side = if seg.faces[0] == face { 0 } else { 1 };
-            walls.binary_search(&(segment, side)).is_ok()
-        };
-        let mut queues: [std::collections::VecDeque<u32>; 2] = Default::default();
-        let mut met = false;
-        for s in &c.steps {
-            for (dir, label) in [((s.from, s.to), LEFT), ((s.to, s.from), RIGHT)] {
-                if let Some(id) = cut.piece_with_directed_edge(dir.0, dir.1) {
-                    let m = &mut self.mark[id as usize];
-                    if *m == UNSEEN {
-                        *m = label;
-                        self.touched.push(id);
-                        queues[(label - 1) as usize].push_back(id);
-                    } else if *m != label {
-                        met = true;
-                    }
-                }
-            }
-        }
-        if queues[0].is_empty() || queues[1].is_empty() {
-            met = true;
-        }
-        let mut size = [0.0f64; 2];
-        let mut members: [Vec<u32>; 2] = Default::default();
-        let face_of =
-            |id: u32| if (id as usize) < cut.n_faces { id } else { cut.pieces[id as usize - cut.n_faces].face };
-        while !met {
-            let done = [queues[0].is_empty(), queues[1].is_empty()];
-            if done[0] || done[1] {
-                if done[0] && done[1] {
-                    diag.fills_tied += 1;
-                    return None;
-                }
-                let k = if done[0] { 0 } else { 1 };
-                return Some(std::mem::take(&mut members[k]));
-            }
-            // Which side grows now.
-            let order: &[usize] = match rule {
-                SizeRule::Faces => &[0, 1],
-                SizeRule::Area => {
-                    if size[0] <= size[1] {
-                        &[0]
-                    } else {
-                        &[1]
-                    }
-                }
-            };
-            for &k in order {
-                let Some(id) = queues[k].pop_front() else { continue };
-                members[k].push(id);
-                size[k] += match rule {
-                    SizeRule::Faces => 1.0,
-                    SizeRule::Area => volume::area(mesh, cut, nodes, id),
-                };
-                let label = if k == 0 { LEFT } else { RIGHT };
-                let mark = &mut self.mark;
-                let touched = &mut self.touched;
-                let queue = &mut queues[k];
-                cut.for_each_neighbour(mesh, id, |nb, wall| {
-                    if let Some(seg) = wall {
-                        if is_wall(seg, face_of(id)) {
-                            return;
-                        }
-                    }
-                    let m = &mut mark[nb as usize];
-                    if *m == UNSEEN {
-                        *m = label;
-                        touched.push(nb);
-                        queue.push_back(nb);
-                    } else if *m != label {
-                        met = true;
-                    }
-                });
-                if met {
-                    break;
-                }
-            }
-        }
-        diag.fills_met += 1;
-        None
-    }
-}
-
-/// Groups contours that share an intersection point (union-find).
-fn group_contours(contours: &[Contour], n_points: usize) -> Vec<Vec<usize>> {
-    let mut owner = vec![usize::MAX; n_points];
-    let mut parent: Vec<usize> = (0..contours.len()).collect();
-    fn find(p: &mut [usize], mut x: usize) -> usize {
-        while p[x] != x {
-            p[x] = p[p[x]];
-            x = p[x];
-        }
-        x
-    }
-    for (c, contour) in contours.iter().enumerate() {
-        for &pt in &contour.points {
-            let o = owner[pt as usize];
-            if o == usize::MAX {
-                owner[pt as usize] = c;
-            } else {
-                let (a, b) = (find(&mut parent, o), find(&mut parent, c));
-                if a != b {
-                    parent[a.max(b)] = a.min(b);
-                }
-            }
-        }
-    }
-    let mut groups: Vec<Vec<usize>> = Vec::new();
-    let mut index = vec![usize::MAX; contours.len()];
-    for c in 0..contours.len() {
-        let r = find(&mut parent, c);
-        if index[r] == usize::MAX {
-            index[r] = groups.len();
-            groups.push(Vec::new());
-        }
-        groups[index[r]].push(c);
-    }
-    groups
 }

@@ -13,7 +13,17 @@ use crate::GradientMode;
 /// `X = a + t (b - a)`; with [`GradientMode::FixedBarycentric`] the edge node is
 /// `(1 - t) a + t b` and the face node `Σ bary_k p_k` with `t` and `bary` as recorded (equal
 /// to `X` up to rounding at the configuration they were computed in).
-pub fn node_positions(mesh: &TriMesh, inter: &SelfIntersections, mode: GradientMode, out: &mut Vec<Vec3>) {
+///
+/// Crossing nodes (triple points, [`CutMesh::crossings`]) follow: exactly, the crossing of
+/// the lines through their two chord edges within the face; with fixed weights, the
+/// recorded barycentric combination of the face's corners.
+pub fn node_positions(
+    mesh: &TriMesh,
+    inter: &SelfIntersections,
+    cut: &CutMesh,
+    mode: GradientMode,
+    out: &mut Vec<Vec3>,
+) {
     out.clear();
     out.extend_from_slice(mesh.positions());
     let pos = mesh.positions();
@@ -30,6 +40,76 @@ pub fn node_positions(mesh: &TriMesh, inter: &SelfIntersections, mode: GradientM
         };
         out.push(e);
         out.push(f);
+    }
+    for c in &cut.crossings {
+        let x = match mode {
+            GradientMode::Exact => {
+                let m = mesh.face_normal_scaled(c.face as usize);
+                let [a, b, cc, d] = [c.first[0], c.first[1], c.second[0], c.second[1]].map(|n| out[n as usize]);
+                let den = (b - a).cross(&(d - cc)).dot(&m);
+                let s = if den != 0.0 && den.is_finite() { (cc - a).cross(&(d - cc)).dot(&m) / den } else { 0.5 };
+                a + (b - a) * s
+            }
+            GradientMode::FixedBarycentric => {
+                let fv = mesh.faces()[c.face as usize];
+                (0..3).map(|k| pos[fv[k] as usize] * c.bary[k]).sum()
+            }
+        };
+        out.push(x);
+    }
+}
+
+/// Moves the gradient of every crossing node onto the nodes it is made of (exact mode: the
+/// four chord-edge ends, through `X = A + s (B − A)` with
+/// `s = ((C − A) × (D − C)) · m / ((B − A) × (D − C)) · m` and the face normal `m` held
+/// fixed, since `s` does not change to first order when the normal turns) or onto the face's
+/// corners (fixed weights). Crossing gradients are zero afterwards.
+fn unfold_crossings(
+    mesh: &TriMesh,
+    cut: &CutMesh,
+    mode: GradientMode,
+    nodes: &[Vec3],
+    node_grad: &mut [Vec3],
+    vertex_grad: &mut [Vec3],
+) {
+    for (k, c) in cut.crossings.iter().enumerate() {
+        let id = cut.crossing_node(k) as usize;
+        let g = std::mem::replace(&mut node_grad[id], Vec3::zeros());
+        if g == Vec3::zeros() {
+            continue;
+        }
+        match mode {
+            GradientMode::FixedBarycentric => {
+                let fv = mesh.faces()[c.face as usize];
+                for j in 0..3 {
+                    vertex_grad[fv[j] as usize] += g * c.bary[j];
+                }
+            }
+            GradientMode::Exact => {
+                let m = mesh.face_normal_scaled(c.face as usize);
+                let ids = [c.first[0], c.first[1], c.second[0], c.second[1]].map(|n| n as usize);
+                let [a, b, cc, d] = ids.map(|n| nodes[n]);
+                let den = (b - a).cross(&(d - cc)).dot(&m);
+                if den == 0.0 || !den.is_finite() {
+                    node_grad[ids[0]] += g * 0.5;
+                    node_grad[ids[1]] += g * 0.5;
+                    continue;
+                }
+                let num = (cc - a).cross(&(d - cc)).dot(&m);
+                let s = num / den;
+                let dc = d - cc;
+                // ∂num and ∂den with respect to A, B, C, D.
+                let dn = [-dc.cross(&m), Vec3::zeros(), dc.cross(&m) - m.cross(&(cc - a)), m.cross(&(cc - a))];
+                let dd = [-dc.cross(&m), dc.cross(&m), -m.cross(&(b - a)), m.cross(&(b - a))];
+                let gb = g.dot(&(b - a));
+                for j in 0..4 {
+                    let ds = (dn[j] - dd[j] * s) / den;
+                    node_grad[ids[j]] += ds * gb;
+                }
+                node_grad[ids[0]] += g * (1.0 - s);
+                node_grad[ids[1]] += g * s;
+            }
+        }
     }
 }
 
@@ -119,15 +199,23 @@ fn for_each_fan_triangle(mesh: &TriMesh, cut: &CutMesh, id: u32, mut f: impl FnM
 /// Chains node gradients back to the mesh vertices. Returns the number of points whose
 /// exact derivative was replaced by the fixed-weight one because the edge was nearly
 /// parallel to the face (the exact derivative grows without bound there).
+///
+/// Crossing nodes are unfolded first (`node_grad` is modified).
 pub fn chain_to_vertices(
     mesh: &TriMesh,
     inter: &SelfIntersections,
+    cut: &CutMesh,
     mode: GradientMode,
-    node_grad: &[Vec3],
+    nodes: &[Vec3],
+    node_grad: &mut [Vec3],
     vertex_grad: &mut [Vec3],
 ) -> usize {
     let nv = mesh.n_vertices();
-    vertex_grad[..nv].copy_from_slice(&node_grad[..nv]);
+    vertex_grad[..nv].iter_mut().for_each(|g| *g = Vec3::zeros());
+    unfold_crossings(mesh, cut, mode, nodes, node_grad, vertex_grad);
+    for (v, g) in vertex_grad[..nv].iter_mut().zip(&node_grad[..nv]) {
+        *v += *g;
+    }
     let pos = mesh.positions();
     let edges = mesh.topology().edges();
     let mut n_fallback = 0;

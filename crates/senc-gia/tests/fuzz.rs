@@ -6,7 +6,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use senc_geom::shapes::{icosphere, tube, Caps};
 use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
-use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, SizeRule};
+use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, SizeRule, VolumeRule};
 
 fn crumple(base: &TriMesh, rng: &mut ChaCha8Rng) -> Vec<Vec3> {
     let amp: f64 = rng.random_range(0.0..0.8);
@@ -55,10 +55,18 @@ fn ten_thousand_random_meshes_never_panic_or_give_nan() {
         };
         let options = GiaOptions {
             gradient: if rng.random_bool(0.5) { GradientMode::Exact } else { GradientMode::FixedBarycentric },
+            rule: if rng.random_bool(0.5) { VolumeRule::Winding } else { VolumeRule::SmallerSide },
             size_rule: if rng.random_bool(0.5) { SizeRule::Faces } else { SizeRule::Area },
         };
         let p = GiaWorkspace::new(&closure).penetration(&closure, &options).unwrap();
-        assert!(p.volume.is_finite() && p.volume >= 0.0, "case {case}: volume {}", p.volume);
+        assert!(p.volume.is_finite(), "case {case}: volume {}", p.volume);
+        // With a hole left open the winding rule measures the surface closed by a virtual
+        // fan that is not tested for crossings (see senc_gia's docs): a crumpled tube can
+        // pass through it, and the sum is then no volume. Everywhere else it is one.
+        if options.rule == VolumeRule::SmallerSide || closure.open_holes().is_empty() {
+            // Exact up to the rounding of the tetrahedra sums (the meshes are about 2 m wide).
+            assert!(p.volume >= -1e-12, "case {case}: volume {} {:?} {:?}", p.volume, options, p.diagnostics);
+        }
         assert!(p.area.is_finite() && p.area >= 0.0, "case {case}: area {}", p.area);
         assert!(p.gradient.iter().chain(&p.area_gradient).all(|g| g.iter().all(|c| c.is_finite())), "case {case}");
         assert_eq!(p.gradient.len(), mesh.n_vertices());

@@ -1,0 +1,631 @@
+//! The broad phase's bounding-volume hierarchy: boxes rounded outward to f32, leaf lanes
+//! of four faces, the tree build (connected halves) and refit, and [`SelfIntersector`].
+
+use super::*;
+
+/// Faces per BVH leaf. Leaves of a few faces keep the tree shallow; the face pairs inside
+/// a leaf pair are still each checked against their boxes before any other work.
+pub(super) const LEAF_SIZE: usize = 4;
+
+/// The smaller of two numbers that are not NaN (one `minsd`; `f64::min` also handles NaN).
+/// Positions are finite (checked by [`TriMesh`]), and so are the bounds built from them.
+#[inline(always)]
+pub(super) fn lesser(a: f64, b: f64) -> f64 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The larger of two numbers that are not NaN (see [`lesser`]).
+#[inline(always)]
+pub(super) fn greater(a: f64, b: f64) -> f64 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// Axis-aligned box, closed (touching boxes overlap).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Aabb3 {
+    pub(super) lo: [f64; 3],
+    pub(super) hi: [f64; 3],
+}
+
+impl Aabb3 {
+    pub(super) const EMPTY: Aabb3 = Aabb3 { lo: [f64::INFINITY; 3], hi: [f64::NEG_INFINITY; 3] };
+
+    #[inline]
+    pub(super) fn of_triangle(a: Vec3, b: Vec3, c: Vec3) -> Self {
+        let lo = |ax: usize| lesser(lesser(a[ax], b[ax]), c[ax]);
+        let hi = |ax: usize| greater(greater(a[ax], b[ax]), c[ax]);
+        Aabb3 { lo: [lo(0), lo(1), lo(2)], hi: [hi(0), hi(1), hi(2)] }
+    }
+
+    #[inline]
+    pub(super) fn overlaps(&self, o: &Aabb3) -> bool {
+        self.lo[0] <= o.hi[0]
+            && o.lo[0] <= self.hi[0]
+            && self.lo[1] <= o.hi[1]
+            && o.lo[1] <= self.hi[1]
+            && self.lo[2] <= o.hi[2]
+            && o.lo[2] <= self.hi[2]
+    }
+
+    #[inline]
+    pub(super) fn union(&self, o: &Aabb3) -> Aabb3 {
+        Aabb3 {
+            lo: [lesser(self.lo[0], o.lo[0]), lesser(self.lo[1], o.lo[1]), lesser(self.lo[2], o.lo[2])],
+            hi: [greater(self.hi[0], o.hi[0]), greater(self.hi[1], o.hi[1]), greater(self.hi[2], o.hi[2])],
+        }
+    }
+
+    /// Half the box's surface-area measure (for choosing which node to descend).
+    #[inline]
+    pub(super) fn size(&self) -> f64 {
+        let d = [self.hi[0] - self.lo[0], self.hi[1] - self.lo[1], self.hi[2] - self.lo[2]];
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+    }
+}
+
+/// The boxes of one leaf's (up to [`LEAF_SIZE`]) faces in single precision, rounded
+/// outward (so never smaller than the true boxes), one array per bound and axis, for
+/// testing one face against a whole leaf at once. Unused lanes hold empty boxes.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct LeafBoxes {
+    pub(super) lo: [[f32; LEAF_SIZE]; 3],
+    pub(super) hi: [[f32; LEAF_SIZE]; 3],
+}
+
+impl LeafBoxes {
+    pub(super) const EMPTY: LeafBoxes =
+        LeafBoxes { lo: [[f32::INFINITY; LEAF_SIZE]; 3], hi: [[f32::NEG_INFINITY; LEAF_SIZE]; 3] };
+
+    /// Bit `k` set when lane `k`'s box overlaps lane `lane`'s box of `other`: six 4-wide
+    /// comparisons (`wide`, SSE on x86-64) and one move-mask.
+    #[inline(always)]
+    pub(super) fn overlap_mask(&self, other: &LeafBoxes, lane: usize) -> u32 {
+        let ok = |ax: usize| {
+            let (lo, hi) = (f32x4::new(self.lo[ax]), f32x4::new(self.hi[ax]));
+            f32x4::splat(other.lo[ax][lane]).cmp_le(hi) & lo.cmp_le(f32x4::splat(other.hi[ax][lane]))
+        };
+        (ok(0) & ok(1) & ok(2)).move_mask() as u32
+    }
+}
+
+/// The vertex ids and groups of one leaf's (up to [`LEAF_SIZE`]) faces, one array per
+/// corner, for classifying one face against a whole leaf at once. Ids are compared as bit
+/// patterns (`u32` stored as `i32`). Unused lanes hold copies of no face (they are never in
+/// a box mask).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct LeafVerts {
+    pub(super) v: [[i32; LEAF_SIZE]; 3],
+    pub(super) g: [i32; LEAF_SIZE],
+}
+
+impl LeafVerts {
+    /// Per leaf group of `slot_faces` / `slot_groups`.
+    pub(super) fn of_slots(slot_faces: &[[u32; 3]], slot_groups: &[u32]) -> Vec<LeafVerts> {
+        slot_faces
+            .chunks(LEAF_SIZE)
+            .zip(slot_groups.chunks(LEAF_SIZE))
+            .map(|(fs, gs)| {
+                let mut lv = LeafVerts { v: [[-1; LEAF_SIZE]; 3], g: [0; LEAF_SIZE] };
+                for (k, (f, &g)) in fs.iter().zip(gs).enumerate() {
+                    for (c, &v) in f.iter().enumerate() {
+                        lv.v[c][k] = v as i32;
+                    }
+                    lv.g[k] = g as i32;
+                }
+                lv
+            })
+            .collect()
+    }
+
+    /// For face `f` (vertex ids) of group `g`: the masks of lanes that share no vertex with
+    /// it and of lanes that share exactly one, both without the lanes of the same nonzero
+    /// group (pairs sharing an edge or in one group are never tested).
+    #[inline(always)]
+    pub(super) fn classify(&self, f: [u32; 3], g: u32) -> (u32, u32) {
+        let corners = [i32x4::new(self.v[0]), i32x4::new(self.v[1]), i32x4::new(self.v[2])];
+        // Minus the number of shared vertices per lane (an equal comparison is −1).
+        let mut neg_shared = i32x4::splat(0);
+        for v in f {
+            let v = i32x4::splat(v as i32);
+            for c in corners {
+                neg_shared += v.cmp_eq(c);
+            }
+        }
+        let same_group = if g == 0 { 0 } else { i32x4::splat(g as i32).cmp_eq(i32x4::new(self.g)).move_mask() as u32 };
+        let none = neg_shared.cmp_eq(i32x4::splat(0)).move_mask() as u32;
+        let one = neg_shared.cmp_eq(i32x4::splat(-1)).move_mask() as u32;
+        (none & !same_group, one & !same_group)
+    }
+}
+
+/// `x` rounded to an `f32` not above it.
+#[inline]
+pub(super) fn f32_down(x: f64) -> f32 {
+    let y = x as f32;
+    if (y as f64) > x {
+        f32_step(y, false)
+    } else {
+        y
+    }
+}
+
+/// `x` rounded to an `f32` not below it.
+#[inline]
+pub(super) fn f32_up(x: f64) -> f32 {
+    let y = x as f32;
+    if (y as f64) < x {
+        f32_step(y, true)
+    } else {
+        y
+    }
+}
+
+/// The neighbouring `f32` of a non-NaN `y` upward or downward (`f32::next_up` /
+/// `next_down`, which are newer than this crate's minimum Rust version).
+#[inline]
+pub(super) fn f32_step(y: f32, up: bool) -> f32 {
+    if y == 0.0 {
+        let tiny = f32::from_bits(1);
+        return if up { tiny } else { -tiny };
+    }
+    let bits = y.to_bits();
+    // Away from zero increments the magnitude bits; toward zero decrements them.
+    if (y > 0.0) == up {
+        f32::from_bits(bits + 1)
+    } else {
+        f32::from_bits(bits - 1)
+    }
+}
+
+/// A BVH node: an inner node with children `a`, `b`, or a leaf over slots `a..b`.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Node {
+    pub(super) bbox: Aabb3,
+    pub(super) a: u32,
+    pub(super) b: u32,
+    pub(super) leaf: bool,
+}
+
+/// Reusable self-intersection finder: keeps its BVH between calls and refits it when only
+/// the positions change.
+///
+/// The BVH is built once over the faces (median splits of face centroids along the longest
+/// axis, leaves of [`LEAF_SIZE`] faces) and stores, per leaf slot, the face's vertex ids and
+/// group, so the self-traversal rejects neighbouring faces by comparing ids, without
+/// touching the mesh. At the leaves, one face's box is tested against a whole leaf's boxes
+/// at once, in single precision rounded outward (boxes only ever grow, so no overlapping
+/// pair is missed; a few touching pairs more reach the exact test). Each face pair whose boxes overlap goes straight through the filters
+/// and the exact test; no pair list is materialised.
+pub struct SelfIntersector {
+    /// The faces the tree was built for (rebuilt when a mesh with other faces comes).
+    pub(super) faces: Vec<[u32; 3]>,
+    /// Faces with the same nonzero group are never tested against each other.
+    pub(super) groups: Vec<u32>,
+    pub(super) nodes: Vec<Node>,
+    /// Slot → face.
+    pub(super) order: Vec<u32>,
+    /// Per slot: the face's vertex ids and group (0 = none).
+    pub(super) slot_faces: Vec<[u32; 3]>,
+    pub(super) slot_groups: Vec<u32>,
+    /// Per node: the group shared by all its faces when that is nonzero, else 0. A node
+    /// with a group is never traversed within itself, nor against a node of the same group
+    /// (every pair there is skipped by group anyway).
+    pub(super) node_groups: Vec<u32>,
+    /// Per vertex: [`RING_CLOSED`], [`RING_OPEN`] or [`RING_OTHER`].
+    pub(super) ring_kind: Vec<u8>,
+    /// Per vertex `s`, its ring's wedges `(a, b, slot)` (face `(s, a, b)` in slot `slot`) in
+    /// `ring_links[ring_start[s]..ring_start[s + 1]]` (topology, for [`ring_is_embedded`]).
+    pub(super) ring_start: Vec<u32>,
+    pub(super) ring_links: Vec<[u32; 3]>,
+    /// Per node: its range in `patch_edges` when its faces form a topological disk of at
+    /// least [`MIN_PATCH`] faces (empty otherwise); see [`Traversal::patch_is_embedded`].
+    pub(super) patch_ranges: Vec<[u32; 2]>,
+    /// Boundary edges (vertex pairs) of the disk nodes, node after node.
+    pub(super) patch_edges: Vec<[u32; 2]>,
+    // Per-call buffers, reused.
+    pub(super) boxes: Vec<Aabb3>,
+    /// Per group of [`LEAF_SIZE`] slots (every leaf is one such group).
+    pub(super) lanes: Vec<LeafBoxes>,
+    /// Per group of [`LEAF_SIZE`] slots: the faces' vertex ids and groups (topology).
+    pub(super) leaf_verts: Vec<LeafVerts>,
+    pub(super) planes: Vec<FacePlane>,
+    /// Per vertex, whether its ring is embedded ([`RING_YES`] / [`RING_NO`]), or
+    /// [`RING_UNKNOWN`] until a pair sharing only that vertex asks (computed lazily: most
+    /// vertices lie inside skipped patches and are never asked about).
+    pub(super) rings: Vec<AtomicU8>,
+    /// Per leaf group, then per node: the box of the unit face normals.
+    pub(super) group_normals: Vec<NormalBox>,
+    pub(super) node_normals: Vec<NormalBox>,
+}
+
+impl std::fmt::Debug for SelfIntersector {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SelfIntersector")
+            .field("n_faces", &self.faces.len())
+            .field("n_nodes", &self.nodes.len())
+            .finish()
+    }
+}
+
+impl SelfIntersector {
+    /// Builds the BVH over `mesh`'s faces.
+    pub fn new(mesh: &TriMesh) -> Self {
+        let n = mesh.n_faces();
+        let centroids: Vec<Vec3> = (0..n)
+            .map(|f| {
+                let [a, b, c] = mesh.triangle(f);
+                (a + b + c) / 3.0
+            })
+            .collect();
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 2);
+        if n > 0 {
+            let mut b = Builder {
+                mesh,
+                centroids: &centroids,
+                mark: vec![u32::MAX; n],
+                queued: vec![u32::MAX; n],
+                sorted: Vec::new(),
+                heap: std::collections::BinaryHeap::new(),
+                strays: [Vec::new(), Vec::new()],
+                notches: [Vec::new(), Vec::new()],
+            };
+            b.node(&mut nodes, &mut order, 0, n);
+        }
+        let mut slot_of = vec![0u32; n];
+        for (slot, &f) in order.iter().enumerate() {
+            slot_of[f as usize] = slot as u32;
+        }
+        let faces = mesh.faces().to_vec();
+        let slot_faces: Vec<[u32; 3]> = order.iter().map(|&f| faces[f as usize]).collect();
+        let ring_kind = ring_kinds(mesh);
+        let (ring_start, ring_links) = ring_links(mesh, |f| slot_of[f as usize]);
+        let (patch_ranges, patch_edges) = disk_patches(mesh, &nodes, &order, &slot_of, &ring_kind);
+        Self {
+            slot_groups: vec![0; n],
+            leaf_verts: LeafVerts::of_slots(&slot_faces, &vec![0; n]),
+            node_groups: vec![0; nodes.len()],
+            ring_kind,
+            ring_start,
+            ring_links,
+            patch_ranges,
+            patch_edges,
+            faces,
+            groups: Vec::new(),
+            nodes,
+            order,
+            slot_faces,
+            boxes: Vec::new(),
+            lanes: Vec::new(),
+            planes: Vec::new(),
+            rings: Vec::new(),
+            group_normals: Vec::new(),
+            node_normals: Vec::new(),
+        }
+    }
+
+    /// Faces sharing a nonzero `groups[f]` are not tested against each other, e.g. the fan
+    /// caps of closed holes when crossings of a cap with itself are not wanted (a fan's
+    /// triangles share its centroid; over a tangled hole they can cross each other, and a
+    /// winding-number analysis needs those crossings, so senc-gia does not use groups).
+    /// Grouped faces are still tested against every other face. A `groups` of the wrong
+    /// length is ignored.
+    pub fn with_groups(mut self, groups: Vec<u32>) -> Self {
+        if groups.len() == self.faces.len() {
+            self.slot_groups = self.order.iter().map(|&f| groups[f as usize]).collect();
+            self.leaf_verts = LeafVerts::of_slots(&self.slot_faces, &self.slot_groups);
+            self.node_groups = node_groups(&self.nodes, &self.slot_groups);
+        }
+        self.groups = groups;
+        self
+    }
+
+    /// Crossings of `mesh` with itself. If `mesh` has the faces this intersector was built
+    /// for, the BVH is refit to the new positions; otherwise it is rebuilt.
+    pub fn find(&mut self, mesh: &TriMesh) -> SelfIntersections {
+        if mesh.faces() != self.faces.as_slice() {
+            let groups = std::mem::take(&mut self.groups);
+            let mut fresh = Self::new(mesh);
+            if groups.len() == mesh.n_faces() {
+                fresh = fresh.with_groups(groups);
+            }
+            *self = fresh;
+        }
+        self.refit(mesh);
+        let ctx = self.traversal(mesh);
+        let tasks = ctx.tasks(64);
+        let acc = tasks
+            .par_iter()
+            .fold(Acc::default, |mut acc, &t| {
+                ctx.run(t, &mut acc);
+                acc
+            })
+            .reduce(Acc::default, |mut a, mut b| {
+                if a.results.len() < b.results.len() {
+                    std::mem::swap(&mut a, &mut b);
+                }
+                a.results.append(&mut b.results);
+                a.candidates += b.candidates;
+                a
+            });
+        assemble(mesh, acc.results, acc.candidates)
+    }
+
+    /// The traversal over this tree for `mesh` (refit to its positions).
+    pub(super) fn traversal<'a>(&'a self, mesh: &'a TriMesh) -> Traversal<'a> {
+        Traversal {
+            mesh,
+            nodes: &self.nodes,
+            order: &self.order,
+            slot_faces: &self.slot_faces,
+            slot_groups: &self.slot_groups,
+            node_groups: &self.node_groups,
+            lanes: &self.lanes,
+            leaf_verts: &self.leaf_verts,
+            planes: &self.planes,
+            rings: &self.rings,
+            ring_kind: &self.ring_kind,
+            ring_start: &self.ring_start,
+            ring_links: &self.ring_links,
+            patch_ranges: &self.patch_ranges,
+            patch_edges: &self.patch_edges,
+            normals: &self.node_normals,
+        }
+    }
+
+    /// Face boxes and planes (slot order), node boxes (bottom-up) and vertex rings for the
+    /// current positions.
+    pub(super) fn refit(&mut self, mesh: &TriMesh) {
+        let n = self.order.len();
+        self.boxes.resize(n, Aabb3::EMPTY);
+        self.planes.resize(n, FacePlane::ZERO);
+        let n_groups = n.div_ceil(LEAF_SIZE);
+        self.lanes.resize(n_groups, LeafBoxes::EMPTY);
+        self.group_normals.resize(n_groups, NormalBox::EMPTY);
+        self.node_normals.resize(self.nodes.len(), NormalBox::EMPTY);
+        let pos = mesh.positions();
+        let slot_faces = &self.slot_faces;
+        // One parallel pass over leaf groups: f64 boxes and planes per slot, then the
+        // group's f32 lanes (unused lanes keep their empty boxes) and normal box.
+        self.lanes
+            .par_iter_mut()
+            .zip(self.group_normals.par_iter_mut())
+            .zip(self.boxes.par_chunks_mut(LEAF_SIZE))
+            .zip(self.planes.par_chunks_mut(LEAF_SIZE))
+            .enumerate()
+            .with_min_len(256)
+            .for_each(|(group, (((lanes, nbox), boxes), planes))| {
+                *nbox = NormalBox::EMPTY;
+                for (k, (bx, pl)) in boxes.iter_mut().zip(planes.iter_mut()).enumerate() {
+                    let [a, b, c] = slot_faces[group * LEAF_SIZE + k].map(|v| pos[v as usize]);
+                    *bx = Aabb3::of_triangle(a, b, c);
+                    *pl = FacePlane::of_triangle(a, b, c);
+                    nbox.add_face(pl.n, b - a, c - a);
+                    for ax in 0..3 {
+                        lanes.lo[ax][k] = f32_down(bx.lo[ax]);
+                        lanes.hi[ax][k] = f32_up(bx.hi[ax]);
+                    }
+                }
+            });
+        for i in (0..self.nodes.len()).rev() {
+            let nd = self.nodes[i];
+            if nd.leaf {
+                // A leaf is exactly one group (leaf sizes are multiples of LEAF_SIZE but
+                // the last, and never more than LEAF_SIZE).
+                self.nodes[i].bbox =
+                    self.boxes[nd.a as usize..nd.b as usize].iter().fold(Aabb3::EMPTY, |acc, b| acc.union(b));
+                self.node_normals[i] = self.group_normals[nd.a as usize / LEAF_SIZE];
+            } else {
+                let (ca, cb) = (nd.a as usize, nd.b as usize);
+                self.nodes[i].bbox = self.nodes[ca].bbox.union(&self.nodes[cb].bbox);
+                self.node_normals[i] = self.node_normals[ca].union(&self.node_normals[cb]);
+            }
+        }
+        self.rings.resize_with(mesh.n_vertices(), || AtomicU8::new(RING_UNKNOWN));
+        for r in &mut self.rings {
+            *r.get_mut() = RING_UNKNOWN;
+        }
+    }
+}
+
+/// Tree construction state: the mesh (for edge neighbours), face centroids and scratch.
+pub(super) struct Builder<'a> {
+    pub(super) mesh: &'a TriMesh,
+    pub(super) centroids: &'a [Vec3],
+    /// Per face: `2 node + side` of the split being made.
+    pub(super) mark: Vec<u32>,
+    /// Per face: the node whose growing split has queued it.
+    pub(super) queued: Vec<u32>,
+    pub(super) sorted: Vec<u32>,
+    pub(super) heap: std::collections::BinaryHeap<std::cmp::Reverse<(u64, u32)>>,
+    pub(super) strays: [Vec<usize>; 2],
+    pub(super) notches: [Vec<usize>; 2],
+}
+
+impl Builder<'_> {
+    /// Builds the subtree over `order[lo..hi]` (split in two halves along the longest axis of
+    /// the centroids, the first half grown across edges from the smallest centroid so that
+    /// it stays connected, see [`Self::grow_split`]; leaf sizes a multiple of [`LEAF_SIZE`]
+    /// except the last); returns its node index. Parents come before their children in
+    /// `nodes`. Connected halves make more nodes topological disks that the traversal can
+    /// skip whole (on the garment benchmark, 87% of the nodes of 17 to 1024 faces instead
+    /// of 70% with a plain median split).
+    ///
+    /// After the split, faces with no edge neighbour on their own side ("strays", typical
+    /// where the split line zigzags through a triangulated grid) are swapped pairwise with
+    /// strays of the other side that have an edge neighbour there, so that more nodes are
+    /// topological disks (see [`disk_patches`]); the sizes of both sides are unchanged.
+    pub(super) fn node(&mut self, nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize) -> u32 {
+        let id = nodes.len();
+        nodes.push(Node { bbox: Aabb3::EMPTY, a: lo as u32, b: hi as u32, leaf: true });
+        if hi - lo <= LEAF_SIZE {
+            return id as u32;
+        }
+        let centroids = self.centroids;
+        let (mut cmin, mut cmax) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+        for &f in &order[lo..hi] {
+            cmin = cmin.inf(&centroids[f as usize]);
+            cmax = cmax.sup(&centroids[f as usize]);
+        }
+        let ext = cmax - cmin;
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
+        let n_leaves = (hi - lo).div_ceil(LEAF_SIZE);
+        let mid = lo + (n_leaves / 2) * LEAF_SIZE;
+        self.grow_split(order, lo, mid, hi, axis, id as u32);
+        self.swap_strays(order, lo, mid, hi, id as u32);
+        let l = self.node(nodes, order, lo, mid);
+        let r = self.node(nodes, order, mid, hi);
+        nodes[id] = Node { bbox: Aabb3::EMPTY, a: l, b: r, leaf: false };
+        id as u32
+    }
+
+    /// Splits `order[lo..hi]` into a first part of `mid − lo` faces grown face by face
+    /// across edges from the face with the smallest centroid coordinate along `axis`, always
+    /// taking the queued face that is smallest along `axis` (so the cut follows the median
+    /// plane, as in a median split, while the first part stays edge-connected where the
+    /// faces allow); when the queue runs dry (another component), growth restarts from the
+    /// smallest face not taken.
+    pub(super) fn grow_split(&mut self, order: &mut [u32], lo: usize, mid: usize, hi: usize, axis: usize, id: u32) {
+        let topo = self.mesh.topology();
+        let (face_edges, edge_faces) = (topo.face_edges(), topo.edge_faces());
+        let centroids = self.centroids;
+        let key = |f: u32| {
+            let b = centroids[f as usize][axis].to_bits();
+            (if b >> 63 == 1 { !b } else { b | (1 << 63) }, f)
+        };
+        let (unassigned, left) = (2 * id + 1, 2 * id);
+        self.sorted.clear();
+        self.sorted.extend_from_slice(&order[lo..hi]);
+        self.sorted.sort_unstable_by_key(|&f| key(f));
+        for &f in &self.sorted {
+            self.mark[f as usize] = unassigned;
+        }
+        self.heap.clear();
+        let (mut taken, mut next_seed) = (0, 0);
+        while taken < mid - lo {
+            let f = match self.heap.pop() {
+                Some(std::cmp::Reverse((_, f))) => f,
+                None => {
+                    while self.mark[self.sorted[next_seed] as usize] != unassigned {
+                        next_seed += 1;
+                    }
+                    self.sorted[next_seed]
+                }
+            };
+            if self.mark[f as usize] != unassigned {
+                continue;
+            }
+            self.mark[f as usize] = left;
+            taken += 1;
+            for e in face_edges[f as usize] {
+                let [g0, g1] = edge_faces[e as usize];
+                let g = if g0 == f { g1 } else { g0 };
+                if g != NO_FACE && self.mark[g as usize] == unassigned && self.queued[g as usize] != id {
+                    self.queued[g as usize] = id;
+                    self.heap.push(std::cmp::Reverse(key(g)));
+                }
+            }
+        }
+        let (mut a, mut b) = (lo, mid);
+        for &f in &self.sorted {
+            if self.mark[f as usize] == left {
+                order[a] = f;
+                a += 1;
+            } else {
+                order[b] = f;
+                b += 1;
+            }
+        }
+    }
+
+    pub(super) fn swap_strays(&mut self, order: &mut [u32], lo: usize, mid: usize, hi: usize, id: u32) {
+        let topo = self.mesh.topology();
+        let (face_edges, edge_faces) = (topo.face_edges(), topo.edge_faces());
+        for (k, &f) in order[lo..hi].iter().enumerate() {
+            self.mark[f as usize] = 2 * id + (lo + k >= mid) as u32;
+        }
+        // Strays first, then notches (one neighbour on their side, two on the other),
+        // per side; a stray is swapped with a stray of the other side, else with a notch.
+        for _ in 0..2 {
+            let mark = &self.mark;
+            let count = |f: u32| {
+                let own = mark[f as usize];
+                let (mut same, mut other) = (0, 0);
+                for e in face_edges[f as usize] {
+                    let [g0, g1] = edge_faces[e as usize];
+                    let g = if g0 == f { g1 } else { g0 };
+                    if g != NO_FACE {
+                        let m = mark[g as usize];
+                        same += (m == own) as u32;
+                        other += (m == own ^ 1) as u32;
+                    }
+                }
+                (same, other)
+            };
+            for (side, range) in [(0, lo..mid), (1, mid..hi)] {
+                self.strays[side].clear();
+                self.notches[side].clear();
+                for slot in range {
+                    match count(order[slot]) {
+                        (0, o) if o > 0 => self.strays[side].push(slot),
+                        (1, 2) => self.notches[side].push(slot),
+                        _ => {}
+                    }
+                }
+            }
+            let [sl, sr] = [self.strays[0].len(), self.strays[1].len()];
+            if sl + sr == 0 {
+                break;
+            }
+            let m = sl.min(sr);
+            let mut pairs: Vec<(usize, usize)> =
+                self.strays[0].iter().copied().zip(self.strays[1].iter().copied()).collect();
+            pairs.extend(self.strays[0][m..].iter().copied().zip(self.notches[1].iter().copied()));
+            pairs.extend(self.notches[0].iter().copied().zip(self.strays[1][m..].iter().copied()));
+            for (a, b) in pairs {
+                order.swap(a, b);
+                self.mark[order[a] as usize] = 2 * id;
+                self.mark[order[b] as usize] = 2 * id + 1;
+            }
+        }
+    }
+}
+
+/// Per node, the nonzero group shared by all its faces, or 0 (see
+/// [`SelfIntersector::with_groups`]). Parents come before children in `nodes`.
+pub(super) fn node_groups(nodes: &[Node], slot_groups: &[u32]) -> Vec<u32> {
+    let mut out = vec![0u32; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let nd = nodes[i];
+        out[i] = if nd.leaf {
+            let g = &slot_groups[nd.a as usize..nd.b as usize];
+            if g.iter().all(|&x| x == g[0]) {
+                g[0]
+            } else {
+                0
+            }
+        } else {
+            let (ga, gb) = (out[nd.a as usize], out[nd.b as usize]);
+            if ga == gb {
+                ga
+            } else {
+                0
+            }
+        };
+    }
+    out
+}

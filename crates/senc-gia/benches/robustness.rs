@@ -1,0 +1,70 @@
+//! Robustness run: random jittered and grid-snapped closed meshes (crumpled icospheres and
+//! capped tubes, several crumpled through themselves), by default 100,000 of them
+//! (`SENC_ROBUSTNESS_CASES` overrides). Counts panics (caught), NaN volumes or gradients,
+//! negative volumes, and skipped patches, and prints one JSON line.
+//!
+//! `cargo bench -p senc-gia --bench robustness`
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use senc_geom::shapes::{icosphere, tube, Caps};
+use senc_geom::{close_holes, HoleSelection, Vec3};
+use senc_gia::{GiaOptions, GiaWorkspace, GradientMode};
+
+fn main() {
+    let n: usize = std::env::var("SENC_ROBUSTNESS_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(100_000);
+    let bases = [icosphere(Vec3::zeros(), 1.0, 1).unwrap(), tube(0.5, 1.5, 8, 4, Caps::Fan).unwrap()];
+    let mut rng = ChaCha8Rng::seed_from_u64(20);
+    let (mut panics, mut nan, mut negative, mut positive, mut with_skips, mut triple) = (0, 0, 0, 0, 0, 0);
+    let start = std::time::Instant::now();
+    for case in 0..n {
+        let base = &bases[case % 2];
+        let amp: f64 = rng.random_range(0.0..0.8);
+        let snap = rng.random_bool(0.4);
+        let pos: Vec<Vec3> = base
+            .positions()
+            .iter()
+            .map(|x| {
+                let d =
+                    Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+                let y = x + d * amp;
+                if snap {
+                    y.map(|c| (c * 4.0).round() / 4.0)
+                } else {
+                    y
+                }
+            })
+            .collect();
+        let mode = if rng.random_bool(0.5) { GradientMode::Exact } else { GradientMode::FixedBarycentric };
+        let run = std::panic::catch_unwind(|| {
+            let mesh = base.with_positions(pos).ok()?;
+            let closure = close_holes(&mesh, &HoleSelection::All).ok()?;
+            GiaWorkspace::new(&closure).penetration(&closure, &GiaOptions { gradient: mode, ..Default::default() }).ok()
+        });
+        match run {
+            Err(_) => panics += 1,
+            Ok(None) => {}
+            Ok(Some(p)) => {
+                if !p.volume.is_finite() || p.gradient.iter().any(|g| g.iter().any(|c| !c.is_finite())) {
+                    nan += 1;
+                }
+                if p.volume < -1e-12 {
+                    negative += 1;
+                }
+                if p.volume > 0.0 {
+                    positive += 1;
+                }
+                if p.diagnostics.patches_skipped > 0 {
+                    with_skips += 1;
+                }
+                if p.diagnostics.triple_points > 0 {
+                    triple += 1;
+                }
+            }
+        }
+    }
+    println!(
+        "{{\"cases\":{n},\"panics\":{panics},\"nan\":{nan},\"negative\":{negative},\"with_volume\":{positive},\"with_skipped_patches\":{with_skips},\"with_triple_points\":{triple},\"seconds\":{:.1}}}",
+        start.elapsed().as_secs_f64()
+    );
+}

@@ -1,0 +1,568 @@
+//! The penetration volume by winding numbers: the default rule.
+//!
+//! # Patches
+//! Cutting the closed surface along every intersection segment at once splits it into
+//! *patches*: connected sets of uncut faces and cut pieces that meet across original edges,
+//! never across an intersection segment. No other part of the surface passes through the
+//! inside of a patch, so the winding number `w(x)` of the surface around a point `x` is
+//! constant on each side of it: `w_out` on the side its normals point to and `w_in` on the
+//! other. Crossing the surface against its normal enters it once more, so `w_in = w_out + 1`.
+//! One exact ray query per patch ([`senc_geom::intersect::AxisRay`], from a point inside one
+//! of its faces, leaving on the outward side) gives `w_out`.
+//!
+//! # Weights
+//! The penetration volume is `V = ∫ f(w(x)) dx` with `f(w) = 1` where `w ≥ 2` or `w ≤ −1`
+//! (space that the surface covers twice or more, or inside out) and `0` elsewhere. The cells
+//! of constant `w` are bounded by patches, and by the divergence theorem the volume of a
+//! cell `C` is `⅓ ∮_{∂C} x · n_C dA`, the signed volume of the tetrahedra its boundary spans
+//! with the origin. A patch `P` with outward normal `n_P` bounds two cells: the one on its
+//! inward side (winding `w_in`), for which `n_P` points out of the cell, and the one on its
+//! outward side (`w_out`), for which `−n_P` does. With `T_P = Σ (p0 · (p1 × p2)) / 6` over
+//! its triangles, oriented as the surface,
+//!
+//! `V = Σ_cells f(w_C) vol(C) = Σ_P [f(w_in) − f(w_out)] T_P = Σ_P [f(w_out + 1) − f(w_out)] T_P`.
+//!
+//! The weight `f(w_out + 1) − f(w_out)` is `+1` for `w_out = 1` (the patch bounds a doubly
+//! covered region from outside it), `−1` for `w_out = −1` (it bounds an inverted region from
+//! inside it) and `0` for every other `w_out`: most of a garment (`w_out = 0`) costs nothing
+//! beyond its patch label. The sum is exact, independent of the origin on a closed surface,
+//! and needs no flood fill and no tie rule. Its gradient is `Σ_P weight_P ∂T_P/∂x`, through
+//! the cut nodes as in the flood-fill rule (winding numbers are locally constant).
+//!
+//! # Checks
+//! A wall (one side of an intersection segment) is *inconsistent* when it has the same
+//! patch on both sides (a face whose chords could not be ordered, or a chord ending inside a
+//! face, left the surface uncut there), when no piece lies across it, or when the winding numbers across it do not differ
+//! as its exact side test says. Every patch of a tangle (patches linked through walls and
+//! shared segments) that holds an inconsistent wall gets weight 0 and is counted
+//! ([`crate::Diagnostics::patches_skipped`]): no partial sum is reported, nothing guessed.
+
+use senc_geom::cut::{edge_node, face_node, CutMesh, EdgeTag};
+use std::cmp::Ordering;
+
+use senc_geom::intersect::{AxisRay, SegmentEnd, SelfIntersections};
+use senc_geom::predicates::orient3d_sos;
+use senc_geom::topology::NO_FACE;
+use senc_geom::{TriMesh, Vec3};
+
+use crate::volume;
+
+/// One patch of the cut surface and its classification.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Patch {
+    /// Winding number on the side its normals point to (`w_in = w_out + 1`).
+    pub winding_outside: i64,
+    /// `f(w_out + 1) − f(w_out)`: +1, −1 or 0 (also 0 when skipped).
+    pub weight: i8,
+    /// Whether it was skipped as inconsistent (see the module docs).
+    pub skipped: bool,
+    /// Uncut faces in it.
+    pub n_faces: usize,
+    /// Cut pieces in it.
+    pub n_pieces: usize,
+    /// Its contribution to the volume, `weight · T_P`, m³.
+    pub volume: f64,
+    /// Its area where its weight is nonzero (else 0), m².
+    pub area: f64,
+}
+
+/// Reusable buffers of the patch labelling.
+#[derive(Debug, Default)]
+pub(crate) struct Scratch {
+    parent: Vec<u32>,
+    /// Per fill id: its patch, or `u32::MAX` for the ids of cut faces (replaced by pieces).
+    pub(crate) patch_of: Vec<u32>,
+    root_patch: Vec<u32>,
+}
+
+fn find(parent: &mut [u32], mut x: u32) -> u32 {
+    while parent[x as usize] != x {
+        let up = parent[parent[x as usize] as usize];
+        parent[x as usize] = up;
+        x = up;
+    }
+    x
+}
+
+fn union(parent: &mut [u32], a: u32, b: u32) {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    if ra != rb {
+        parent[ra.max(rb) as usize] = ra.min(rb);
+    }
+}
+
+/// The fill ids in use: uncut faces and pieces.
+fn live_ids(cut: &CutMesh) -> impl Iterator<Item = u32> + '_ {
+    (0..cut.n_fill_ids() as u32).filter(move |&id| id as usize >= cut.n_faces || !cut.is_cut(id))
+}
+
+/// Labels the patches of the cut surface; returns their number (`scratch.patch_of` holds
+/// each fill id's patch).
+pub(crate) fn label_patches(mesh: &TriMesh, cut: &CutMesh, scratch: &mut Scratch) -> usize {
+    let n_ids = cut.n_fill_ids();
+    let parent = &mut scratch.parent;
+    parent.clear();
+    parent.extend(0..n_ids as u32);
+    for &[g, h] in mesh.topology().edge_faces() {
+        if g != NO_FACE && h != NO_FACE && !cut.is_cut(g) && !cut.is_cut(h) {
+            union(parent, g, h);
+        }
+    }
+    for k in 0..cut.pieces.len() {
+        let id = (cut.n_faces + k) as u32;
+        cut.for_each_neighbour(mesh, id, |nb, wall| {
+            if wall.is_none() {
+                union(parent, id, nb);
+            }
+        });
+    }
+    let patch_of = &mut scratch.patch_of;
+    patch_of.clear();
+    patch_of.resize(n_ids, u32::MAX);
+    let mut n = 0u32;
+    let root_patch = &mut scratch.root_patch;
+    root_patch.clear();
+    root_patch.resize(n_ids, u32::MAX);
+    for id in live_ids(cut) {
+        let r = find(parent, id) as usize;
+        if root_patch[r] == u32::MAX {
+            root_patch[r] = n;
+            n += 1;
+        }
+        patch_of[id as usize] = root_patch[r];
+    }
+    n as usize
+}
+
+/// A ray from a point inside fill id `id`, leaving its face on the outward side, and the face
+/// to leave out of the count.
+pub(crate) fn probe_ray(mesh: &TriMesh, cut: &CutMesh, nodes: &[Vec3], id: u32) -> (AxisRay, u32) {
+    let face = if (id as usize) < cut.n_faces { id } else { cut.pieces[id as usize - cut.n_faces].face };
+    let [a, b, c] = mesh.triangle(face as usize);
+    let n = (b - a).cross(&(c - a));
+    let axis = (0..3).max_by(|&i, &j| n[i].abs().total_cmp(&n[j].abs())).unwrap_or(0);
+    let centroid = (a + b + c) / 3.0;
+    let origin = if (id as usize) < cut.n_faces {
+        centroid
+    } else {
+        piece_interior_point(cut, nodes, id as usize - cut.n_faces, a, n, axis).unwrap_or(centroid)
+    };
+    (AxisRay { origin, axis, positive: n[axis] > 0.0 }, face)
+}
+
+/// A point strictly inside piece `k` (holes included), on its face's plane: in the
+/// projection along `axis`, the middle of the widest interior interval of the horizontal
+/// line through the middle of the widest gap between vertex heights.
+fn piece_interior_point(cut: &CutMesh, nodes: &[Vec3], k: usize, a: Vec3, n: Vec3, axis: usize) -> Option<Vec3> {
+    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+    let piece = &cut.pieces[k];
+    let mut ys: Vec<f64> = piece.cycles.iter().flatten().map(|&(node, _)| nodes[node as usize][v]).collect();
+    ys.sort_by(f64::total_cmp);
+    let (gap, y0) = ys.windows(2).map(|w| (w[1] - w[0], 0.5 * (w[0] + w[1]))).max_by(|p, q| p.0.total_cmp(&q.0))?;
+    if gap <= 0.0 || !y0.is_finite() {
+        return None;
+    }
+    let mut xs: Vec<f64> = Vec::new();
+    for cycle in &piece.cycles {
+        for i in 0..cycle.len() {
+            let p = nodes[cycle[i].0 as usize];
+            let q = nodes[cycle[(i + 1) % cycle.len()].0 as usize];
+            if (p[v] > y0) != (q[v] > y0) {
+                xs.push(p[u] + (y0 - p[v]) / (q[v] - p[v]) * (q[u] - p[u]));
+            }
+        }
+    }
+    xs.sort_by(f64::total_cmp);
+    let (width, x0) =
+        xs.chunks_exact(2).map(|w| (w[1] - w[0], 0.5 * (w[0] + w[1]))).max_by(|p, q| p.0.total_cmp(&q.0))?;
+    if width <= 0.0 {
+        return None;
+    }
+    let mut x = Vec3::zeros();
+    x[u] = x0;
+    x[v] = y0;
+    x[axis] = a[axis] - (n[u] * (x0 - a[u]) + n[v] * (y0 - a[v])) / n[axis];
+    x.iter().all(|c| c.is_finite()).then_some(x)
+}
+
+/// What [`classify`] found.
+pub(crate) struct Classified {
+    pub(crate) patches: Vec<Patch>,
+    /// Segment sides whose two pieces lie in one patch or whose winding numbers do not
+    /// differ as the exact side test says.
+    pub(crate) inconsistent_walls: usize,
+    /// Ray queries made (one per connected group of patches, more where an origin lay
+    /// exactly on another face).
+    pub(crate) rays: usize,
+    /// Groups of patches where every probe was refused (their patches are skipped).
+    pub(crate) unresolved: usize,
+}
+
+/// `w_out(left) − w_out(right)` across the chord `from → to` of face `f` along segment
+/// `s`, where `left` is the piece of `f` on the left of that directed edge: `+1` when the
+/// left piece lies on the inward side of the other face `g` of the segment, `−1` otherwise.
+///
+/// The segment runs along `±(n_f × n_g)`, and within `f` the left of `n_f × n_g` is the
+/// inward side of `g`, so the sign is that of `(to − from) · (n_f × n_g)`. It is read off
+/// exactly at an end of the segment: where an edge `p → q` of `f` (in `f`'s corner order)
+/// crosses `g` and the segment leaves `f` there, the left of the chord holds `q`, so the sign
+/// is `+` iff `q` lies on `g`'s inward side; where an edge `p → q` of `g` crosses `f` and `g`
+/// ends there, the left of the direction within `g` holds `q` and lies on `f`'s outward side
+/// iff the sign is `+`. Both sides come from [`orient3d_sos`], the predicate that decided the
+/// crossings. At the segment's start the same reading gives the sign of the reversed
+/// direction; a loop-vertex end has no edge, so the other end is read. A chord edge between
+/// crossing nodes (triple points) takes the sign of its segment, along or against it.
+fn chord_sign(mesh: &TriMesh, inter: &SelfIntersections, nodes: &[Vec3], f: u32, s: u32, from: u32, to: u32) -> i64 {
+    let seg = &inter.segments[s as usize];
+    let g = if seg.faces[0] == f { seg.faces[1] } else { seg.faces[0] };
+    let nv = mesh.n_vertices() as u32;
+    let faces = mesh.faces();
+    let pos = mesh.positions();
+    // `q`'s side of face `h`: `Greater` on the inward side.
+    let side = |h: u32, q: u32| {
+        let hv = faces[h as usize];
+        orient3d_sos(
+            [pos[hv[0] as usize], pos[hv[1] as usize], pos[hv[2] as usize], pos[q as usize]],
+            [hv[0], hv[1], hv[2], q],
+        )
+    };
+    // The second vertex of edge `e` in face `h`'s corner order.
+    let second = |h: u32, e: u32| {
+        let [a, b] = mesh.topology().edges()[e as usize];
+        let hv = faces[h as usize];
+        (0..3)
+            .map(|k| (hv[k], hv[(k + 1) % 3]))
+            .find(|&(x, y)| (x == a && y == b) || (x == b && y == a))
+            .map(|(_, y)| y)
+    };
+    // Sign for the segment directed towards `node`, if `node` is an intersection point.
+    let towards = |node: u32| -> Option<bool> {
+        if node < nv {
+            return None;
+        }
+        let p = &inter.points[((node - nv) / 2) as usize];
+        if (node - nv) % 2 == 0 {
+            // Edge node: an edge of f crossing g.
+            second(f, p.edge).map(|q| side(g, q) == Ordering::Greater)
+        } else {
+            // Face node: an edge of g crossing f.
+            second(g, p.edge).map(|q| side(f, q) == Ordering::Less)
+        }
+    };
+    // The segment's end nodes on f; a chord edge between crossing nodes (triple points)
+    // lies on the segment between them, along it or against it.
+    let end = |e: SegmentEnd| match e {
+        SegmentEnd::LoopVertex(v) => v,
+        SegmentEnd::Point(i) => {
+            if inter.points[i as usize].face == f {
+                face_node(nv as usize, i)
+            } else {
+                edge_node(nv as usize, i)
+            }
+        }
+    };
+    let (e0, e1) = (end(seg.ends[0]), end(seg.ends[1]));
+    let along = if from == e0 || to == e1 {
+        true
+    } else if from == e1 || to == e0 {
+        false
+    } else {
+        (nodes[to as usize] - nodes[from as usize]).dot(&(nodes[e1 as usize] - nodes[e0 as usize])) > 0.0
+    };
+    let forward = match towards(e1).or_else(|| towards(e0).map(|b| !b)) {
+        Some(true) => 1,
+        Some(false) => -1,
+        None => return 0,
+    };
+    if along {
+        forward
+    } else {
+        -forward
+    }
+}
+
+/// Classifies every patch: the winding difference across every intersection segment comes
+/// from [`chord_sign`]; one ray query per connected group of patches (`ray(ray, skip)`
+/// returns the signed crossing count), from the group's best probe (an uncut face's
+/// centroid where there is one), fixes the group's absolute winding numbers; then every
+/// segment is checked. Volumes and areas are left at 0.
+pub(crate) fn classify(
+    mesh: &TriMesh,
+    cut: &CutMesh,
+    inter: &SelfIntersections,
+    nodes: &[Vec3],
+    scratch: &mut Scratch,
+    has_open_holes: bool,
+    mut ray: impl FnMut(&AxisRay, u32) -> Option<i64>,
+) -> Classified {
+    let n_patches = label_patches(mesh, cut, scratch);
+    let patch_of = &scratch.patch_of;
+    let mut patches =
+        vec![
+            Patch { winding_outside: 0, weight: 0, skipped: false, n_faces: 0, n_pieces: 0, volume: 0.0, area: 0.0 };
+            n_patches
+        ];
+    // Walls `(left patch, right patch, w_left − w_right)`, one per chord edge of a piece, and
+    // the patches along each segment.
+    let mut walls: Vec<(u32, u32, i64)> = Vec::new();
+    let mut segment_patch: Vec<(u32, u32)> = Vec::new();
+    for k in 0..cut.pieces.len() {
+        let id = cut.n_faces + k;
+        let face = cut.pieces[k].face;
+        for cycle in &cut.pieces[k].cycles {
+            for i in 0..cycle.len() {
+                let (from, tag) = cycle[i];
+                let EdgeTag::Chord { segment } = tag else { continue };
+                let to = cycle[(i + 1) % cycle.len()].0;
+                let Some(nb) = cut.piece_with_directed_edge(to, from) else {
+                    // Nothing across the segment: the cut is not closed here.
+                    walls.push((patch_of[id], u32::MAX, 0));
+                    continue;
+                };
+                let delta = chord_sign(mesh, inter, nodes, face, segment, from, to);
+                walls.push((patch_of[id], patch_of[nb as usize], delta));
+            }
+        }
+    }
+    // Probes per patch: its largest uncut face and its largest piece. An uncut face's
+    // centroid lies well inside it; a ray that finds its origin exactly on another face is
+    // refused and the next probe is tried.
+    let mut best_face: Vec<(f64, u32)> = vec![(-1.0, u32::MAX); n_patches];
+    let mut best_piece: Vec<(f64, u32)> = vec![(-1.0, u32::MAX); n_patches];
+    for id in live_ids(cut) {
+        let p = patch_of[id as usize] as usize;
+        let (best, area) = if (id as usize) < cut.n_faces {
+            patches[p].n_faces += 1;
+            (&mut best_face[p], mesh.face_normal_scaled(id as usize).norm())
+        } else {
+            patches[p].n_pieces += 1;
+            (&mut best_piece[p], volume::area(mesh, cut, nodes, id))
+        };
+        if best.1 == u32::MAX || area > best.0 {
+            *best = (area, id);
+        }
+    }
+    // Groups of patches linked by walls: one ray each, then propagation.
+    let mut adj: Vec<Vec<(u32, i64)>> = vec![Vec::new(); n_patches];
+    for &(a, b, d) in &walls {
+        if a != b && b != u32::MAX && d != 0 {
+            adj[a as usize].push((b, d));
+            adj[b as usize].push((a, -d));
+        }
+    }
+    let mut group_of = vec![u32::MAX; n_patches];
+    let mut rays = 0;
+    let mut unresolved = 0;
+    let mut group: Vec<u32> = Vec::new();
+    let mut candidates: Vec<(bool, f64, u32, u32)> = Vec::new();
+    for start in 0..n_patches {
+        if group_of[start] != u32::MAX {
+            continue;
+        }
+        group.clear();
+        group.push(start as u32);
+        group_of[start] = start as u32;
+        let mut i = 0;
+        while i < group.len() {
+            for &(b, _) in &adj[group[i] as usize] {
+                if group_of[b as usize] == u32::MAX {
+                    group_of[b as usize] = start as u32;
+                    group.push(b);
+                }
+            }
+            i += 1;
+        }
+        candidates.clear();
+        for &p in &group {
+            for (uncut, (area, id)) in [(true, best_face[p as usize]), (false, best_piece[p as usize])] {
+                if id != u32::MAX {
+                    candidates.push((uncut, area, id, p));
+                }
+            }
+        }
+        candidates.sort_by(|a, b| (b.0, b.1).partial_cmp(&(a.0, a.1)).unwrap_or(Ordering::Equal));
+        let found = candidates.iter().find_map(|&(_, _, id, p)| {
+            let (r, skip) = probe_ray(mesh, cut, nodes, id);
+            rays += 1;
+            ray(&r, skip).map(|w| (p, w))
+        });
+        let Some((root, w)) = found else {
+            unresolved += 1;
+            for &p in &group {
+                patches[p as usize].skipped = true;
+            }
+            continue;
+        };
+        // Propagate: w(b) = w(a) − (w_a − w_b).
+        patches[root as usize].winding_outside = w;
+        let mut done: Vec<u32> = vec![root];
+        let mut seen: rustc_hash::FxHashSet<u32> = [root].into_iter().collect();
+        while let Some(a) = done.pop() {
+            let wa = patches[a as usize].winding_outside;
+            for &(b, d) in &adj[a as usize] {
+                if seen.insert(b) {
+                    patches[b as usize].winding_outside = wa - d;
+                    done.push(b);
+                }
+            }
+        }
+    }
+    let mut inconsistent_walls = 0;
+    let mut bad_group = vec![false; n_patches];
+    for &(a, b, d) in &walls {
+        if b == u32::MAX {
+            inconsistent_walls += 1;
+            bad_group[group_of[a as usize] as usize] = true;
+            continue;
+        }
+        let (wa, wb) = (patches[a as usize].winding_outside, patches[b as usize].winding_outside);
+        if a == b || d == 0 || wa - wb != d {
+            inconsistent_walls += 1;
+            bad_group[group_of[a as usize] as usize] = true;
+            bad_group[group_of[b as usize] as usize] = true;
+        }
+    }
+    // One inconsistent wall makes every winding number of its group doubtful (they were
+    // propagated through it), and the cells those patches bound are also bounded by the
+    // patches across the same segments: the whole tangle (groups linked through shared
+    // segments) is skipped, so that no partial sum is reported as a volume.
+    // Every piece of a face that a segment crosses lies along that segment; a cut face with
+    // no chord at all was kept whole (complex) and its patch cannot be trusted.
+    for (s, seg) in inter.segments.iter().enumerate() {
+        for &f in &seg.faces {
+            for k in cut.face_pieces[f as usize].clone() {
+                let piece = &cut.pieces[k as usize];
+                let p = patch_of[cut.n_faces + k as usize];
+                segment_patch.push((s as u32, p));
+                let has_chord = piece.cycles.iter().flatten().any(|c| matches!(c.1, EdgeTag::Chord { .. }));
+                if !has_chord {
+                    bad_group[group_of[p as usize] as usize] = true;
+                }
+            }
+        }
+    }
+    // A triple point of faces f, g, h is a crossing node on each of the three faces; where
+    // the faces disagree (a crossing found on one face but not on another, in nearly
+    // degenerate configurations) the cut is not one surface and its patches are doubtful.
+    if !cut.crossings.is_empty() {
+        let other = |s: u32, f: u32| {
+            let faces = inter.segments[s as usize].faces;
+            if faces[0] == f {
+                faces[1]
+            } else {
+                faces[0]
+            }
+        };
+        let mut triples: Vec<[u32; 3]> = cut
+            .crossings
+            .iter()
+            .map(|c| {
+                let mut t = [c.face, other(c.segments[0], c.face), other(c.segments[1], c.face)];
+                t.sort_unstable();
+                t
+            })
+            .collect();
+        triples.sort_unstable();
+        let mut i = 0;
+        while i < triples.len() {
+            let mut j = i;
+            while j < triples.len() && triples[j] == triples[i] {
+                j += 1;
+            }
+            if (j - i) % 3 != 0 {
+                for &f in &triples[i] {
+                    for k in cut.face_pieces[f as usize].clone() {
+                        let p = patch_of[cut.n_faces + k as usize];
+                        bad_group[group_of[p as usize] as usize] = true;
+                    }
+                }
+            }
+            i = j;
+        }
+    }
+    if bad_group.iter().any(|&b| b) {
+        let mut tangle: Vec<u32> = (0..n_patches as u32).collect();
+        for p in 0..n_patches {
+            union(&mut tangle, p as u32, group_of[p]);
+        }
+        segment_patch.sort_unstable();
+        for w in segment_patch.windows(2) {
+            if w[0].0 == w[1].0 {
+                union(&mut tangle, w[0].1, w[1].1);
+            }
+        }
+        let mut bad_tangle = vec![false; n_patches];
+        for p in 0..n_patches {
+            if bad_group[group_of[p] as usize] {
+                bad_tangle[find(&mut tangle, p as u32) as usize] = true;
+            }
+        }
+        for (p, patch) in patches.iter_mut().enumerate() {
+            if bad_tangle[find(&mut tangle, p as u32) as usize] {
+                patch.skipped = true;
+            }
+        }
+    }
+    if has_open_holes {
+        // A patch reaching an open hole would bound penetrated space through the hole's
+        // virtual fan, which is not in the sum: skipped when its weight is nonzero.
+        let topo = mesh.topology();
+        for (e, &[g, h]) in topo.edge_faces().iter().enumerate() {
+            let _ = e;
+            let f = match (g, h) {
+                (NO_FACE, f) | (f, NO_FACE) if f != NO_FACE => f,
+                _ => continue,
+            };
+            let ids: Vec<u32> = if cut.is_cut(f) {
+                cut.face_pieces[f as usize].clone().map(|k| (cut.n_faces as u32) + k).collect()
+            } else {
+                vec![f]
+            };
+            for id in ids {
+                let p = &mut patches[patch_of[id as usize] as usize];
+                if matches!(p.winding_outside, 1 | -1) {
+                    p.skipped = true;
+                }
+            }
+        }
+    }
+    for p in &mut patches {
+        p.weight = if p.skipped {
+            0
+        } else {
+            match p.winding_outside {
+                1 => 1,
+                -1 => -1,
+                _ => 0,
+            }
+        };
+    }
+    Classified { patches, inconsistent_walls, rays, unresolved }
+}
+
+/// Adds each weighted patch's volume `weight · T_P` and area to `patches`, and their
+/// gradients (per cut node) to `node_grad` and `area_node_grad`.
+pub(crate) fn accumulate(
+    mesh: &TriMesh,
+    cut: &CutMesh,
+    nodes: &[Vec3],
+    scratch: &Scratch,
+    patches: &mut [Patch],
+    node_grad: &mut [Vec3],
+    area_node_grad: &mut [Vec3],
+) {
+    if patches.iter().all(|p| p.weight == 0) {
+        return;
+    }
+    for id in live_ids(cut) {
+        let p = &mut patches[scratch.patch_of[id as usize] as usize];
+        if p.weight == 0 {
+            continue;
+        }
+        let w = f64::from(p.weight);
+        p.volume += w * volume::signed_volume(mesh, cut, nodes, id);
+        p.area += volume::area(mesh, cut, nodes, id);
+        volume::add_volume_gradient(mesh, cut, nodes, id, w, node_grad);
+        volume::add_area_gradient(mesh, cut, nodes, id, 1.0, area_node_grad);
+    }
+}
