@@ -1,8 +1,8 @@
 //! `cargo xtask <command>`: every command senc users run.
 //!
-//! - `volume MESH.obj [--close-holes] [--leave-open N ...] [--smaller-side] [--repeat N] [--json]`: the
-//!   penetration volume
-//!   (SENC's self-collision energy) with regions, paths, diagnostics and time taken.
+//! - `volume MESH.obj [--close-holes] [--leave-open N ...] [--smaller-side] [--repeat N] [--json]`:
+//!   the penetration volume (SENC's self-collision energy) with patches, paths, diagnostics
+//!   and time taken (`--repeat N`: median of N warm calls).
 //! - `check-mesh MESH.obj [--close-holes] [--json]`: validate a mesh and print its topology
 //!   (vertices, faces, boundary loops, components, closure).
 //! - `energy --garment REST.obj --state NEXT.obj [--prev CUR.obj --prev2 PREV.obj] [--body BODY.obj]

@@ -87,20 +87,6 @@ pub struct TrainConfig {
     /// Length of the collision-weight ramp, iterations (HOOD ramps over 100k; ours are
     /// shorter). Ignored without `collision_weight_start`.
     pub collision_ramp_iterations: u64,
-    /// Weight on the rigid-translation part of the energy gradient (the mass-weighted mean
-    /// over the free vertices) before it reaches the network; 1 (the default) trains on
-    /// the plain gradient. A uniform acceleration error δ costs only `M δ² Δt² / 2` per step
-    /// (about 0.02 J for a 0.3 kg garment at 10 m/s² and Δt = 1/30 s), far below the
-    /// stretching errors of a young network, yet it compounds over a rollout into drift;
-    /// > 1 makes the training signal weigh that mode more. The minimiser is unchanged (both parts vanish there).
-    pub translation_weight: f64,
-    /// σ of a random uniform velocity, m/s, added per mid-motion training sequence (not in
-    /// warm-up) to the free (unpinned) vertices of the start state (default 0: off).
-    /// Skinned starts are taut cloth moving with the body, where cancelling gravity is
-    /// nearly right; a network that only sees those may learn to cancel gravity everywhere
-    /// and let a garment that has drifted keep drifting. A start moving against the body
-    /// shows it otherwise.
-    pub velocity_noise_std: f64,
     /// Probability that a mid-motion training sequence (not in warm-up) starts from a state
     /// the network itself reached in an earlier rollout (the visited-state pool) instead of
     /// a skinned one. Skinned starts show only cloth that hangs on the body; rolled out
@@ -155,8 +141,6 @@ impl Default for TrainConfig {
             scenes: Vec::new(),
             collision_weight_start: None,
             collision_ramp_iterations: 1000,
-            translation_weight: 1.0,
-            velocity_noise_std: 0.0,
             pool_share: 0.0,
             pool_size: 64,
             pool_every: 50,
@@ -461,15 +445,6 @@ impl RunConfig {
         }
         if !(0.0..=1.0).contains(&t.max_start_penetration) {
             return bad(format!("[train] max_start_penetration = {} must be in [0, 1]", t.max_start_penetration));
-        }
-        if !(t.translation_weight.is_finite() && t.translation_weight >= 0.0) {
-            return bad(format!(
-                "[train] translation_weight = {} must be finite and >= 0 (1: off)",
-                t.translation_weight
-            ));
-        }
-        if !(t.velocity_noise_std.is_finite() && t.velocity_noise_std >= 0.0) {
-            return bad(format!("[train] velocity_noise_std = {} m/s must be finite and >= 0", t.velocity_noise_std));
         }
         if t.checkpoint_every == 0 {
             return bad("[train] checkpoint_every must be >= 1".into());

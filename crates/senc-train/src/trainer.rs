@@ -201,40 +201,6 @@ pub fn scene_material(g: &Garment) -> Result<Material, TrainError> {
     Ok(Material { mu, lambda, thickness: mc.thickness, bending_stiffness: mc.bending, density: mc.density })
 }
 
-/// Scales the rigid-translation part of a position gradient by `w`: with `ḡ = Σ g_i / Σ m_i`
-/// over the free (not `pinned`, sorted) vertices, `g_i ← g_i + (w − 1) m_i ḡ` there. The
-/// part orthogonal to translation (in the mass metric) is unchanged; pinned vertices are
-/// left alone.
-pub(crate) fn weight_translation(grad: &mut [Vec3], mass: &[f64], pinned: &[usize], w: f64) {
-    let free = |i: usize| pinned.binary_search(&i).is_err();
-    let (mut sum, mut m) = (Vec3::zeros(), 0.0);
-    for (i, (g, &mi)) in grad.iter().zip(mass).enumerate() {
-        if free(i) {
-            sum += g;
-            m += mi;
-        }
-    }
-    if m <= 0.0 {
-        return;
-    }
-    let mean = sum / m;
-    for (i, (g, &mi)) in grad.iter_mut().zip(mass).enumerate() {
-        if free(i) {
-            *g += mean * ((w - 1.0) * mi);
-        }
-    }
-}
-
-/// Adds the velocity `dv` to the free (not `pinned`, sorted) vertices of a state given by
-/// `prev` and the (unchanged) current positions: `prev_i ← prev_i − dv Δt`.
-pub(crate) fn add_velocity(prev: &mut [Vec3], pinned: &[usize], dv: Vec3, dt: f64) {
-    for (i, p) in prev.iter_mut().enumerate() {
-        if pinned.binary_search(&i).is_err() {
-            *p -= dv * dt;
-        }
-    }
-}
-
 /// Moves a sequence one frame on to `next`. After the long first step the velocity is
 /// kept, not the displacement: the next steps are 1/fps long.
 fn advance(s: &mut Sequence, next: Vec<Vec3>, g: &Garment) {
@@ -519,13 +485,6 @@ impl Trainer {
                 *c += d;
             }
         }
-        // Not in warm-up: the output normaliser learns the skinned garment's response.
-        if t.velocity_noise_std > 0.0 && !first && !warm {
-            let normal = Normal::new(0.0, t.velocity_noise_std).map_err(|e| TrainError::Invalid(e.to_string()))?;
-            let dv =
-                Vec3::new(normal.sample(&mut self.rng), normal.sample(&mut self.rng), normal.sample(&mut self.rng));
-            add_velocity(&mut prev, &g.pinned, dv, g.scene.dt());
-        }
         self.sequence_id += 1;
         Ok(Sequence {
             garment: gi,
@@ -640,10 +599,6 @@ impl Trainer {
         let ok = evaluated.filter(|b| b.total.is_finite() && finite(&grad));
         let mut stepped = false;
         if let Some(b) = ok {
-            let w = self.config.train.translation_weight;
-            if w != 1.0 {
-                weight_translation(&mut grad, em.masses(), &g.pinned, w);
-            }
             report.loss = b.total;
             report.terms = b.terms.clone();
             if self.config.train.newton_weight > 0.0 {
@@ -850,62 +805,5 @@ impl Trainer {
             }
         }
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn sample(n: usize) -> (Vec<Vec3>, Vec<f64>) {
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
-        let g = (0..n).map(|_| Vec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, rng.random())).collect();
-        let m = (0..n).map(|_| 0.5 + rng.random::<f64>()).collect();
-        (g, m)
-    }
-
-    #[test]
-    fn translation_part_is_scaled_and_the_rest_kept() {
-        let (g0, m) = sample(40);
-        let pinned = vec![3, 17, 30];
-        let free: Vec<usize> = (0..40).filter(|i| !pinned.contains(i)).collect();
-        let mean = |g: &[Vec3]| free.iter().map(|&i| g[i]).sum::<Vec3>() / free.iter().map(|&i| m[i]).sum::<f64>();
-        for w in [0.0, 1.0, 25.0] {
-            let mut g = g0.clone();
-            weight_translation(&mut g, &m, &pinned, w);
-            for &i in &pinned {
-                assert_eq!(g[i], g0[i], "pinned vertex {i} changed");
-            }
-            let (a, b) = (mean(&g0), mean(&g));
-            assert!((b - a * w).norm() < 1e-12 * (1.0 + a.norm() * w), "w = {w}: mean {b:?}, want {:?}", a * w);
-            for &i in &free {
-                let (r0, r) = (g0[i] - a * m[i], g[i] - b * m[i]);
-                assert!((r - r0).norm() < 1e-12, "w = {w}: orthogonal part of vertex {i} changed");
-            }
-        }
-    }
-
-    #[test]
-    fn added_velocity_moves_free_vertices_only() {
-        let (curr, _) = sample(10);
-        let prev0: Vec<Vec3> = curr.iter().map(|c| c - Vec3::new(0.01, 0.0, -0.02)).collect();
-        let mut prev = prev0.clone();
-        let (dv, dt) = (Vec3::new(0.3, -0.6, 0.9), 1.0 / 30.0);
-        add_velocity(&mut prev, &[2, 5], dv, dt);
-        for i in 0..10 {
-            let (v0, v) = ((curr[i] - prev0[i]) / dt, (curr[i] - prev[i]) / dt);
-            let want = if i == 2 || i == 5 { v0 } else { v0 + dv };
-            assert!((v - want).norm() < 1e-12, "vertex {i}: velocity {v:?}, want {want:?}");
-        }
-    }
-
-    #[test]
-    fn all_pinned_or_massless_leaves_the_gradient() {
-        let (g0, m) = sample(5);
-        let mut g = g0.clone();
-        weight_translation(&mut g, &m, &[0, 1, 2, 3, 4], 10.0);
-        assert_eq!(g, g0);
-        weight_translation(&mut g, &[0.0; 5], &[], 10.0);
-        assert_eq!(g, g0);
     }
 }
