@@ -20,25 +20,12 @@ pub struct RunningStats {
     count: u64,
     sum: Vec<f64>,
     sum_sq: Vec<f64>,
-    /// Per-column floor on the standard deviation (empty: [`STD_EPSILON`] everywhere).
-    #[serde(default)]
-    floor: Vec<f64>,
 }
 
 impl RunningStats {
     /// Empty statistics over `width` columns.
     pub fn new(width: usize) -> Self {
-        Self { count: 0, sum: vec![0.0; width], sum_sq: vec![0.0; width], floor: Vec::new() }
-    }
-
-    /// Floors the standard deviation of column `k` at `floor` (at least [`STD_EPSILON`]):
-    /// a column that barely varies in the statistics (the velocity of cloth hanging on a
-    /// body that holds still) must not turn the small values met later into huge inputs.
-    pub fn set_floor(&mut self, k: usize, floor: f64) {
-        if self.floor.len() != self.width() {
-            self.floor = vec![STD_EPSILON; self.width()];
-        }
-        self.floor[k] = floor.max(STD_EPSILON);
+        Self { count: 0, sum: vec![0.0; width], sum_sq: vec![0.0; width] }
     }
 
     /// Number of columns.
@@ -88,10 +75,9 @@ impl RunningStats {
         self.sum
             .iter()
             .zip(&self.sum_sq)
-            .enumerate()
-            .map(|(k, (s, q))| {
+            .map(|(s, q)| {
                 let mean = s / n;
-                (q / n - mean * mean).max(0.0).sqrt().max(self.floor.get(k).copied().unwrap_or(STD_EPSILON))
+                (q / n - mean * mean).max(0.0).sqrt().max(STD_EPSILON)
             })
             .collect()
     }

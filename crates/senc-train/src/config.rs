@@ -108,9 +108,6 @@ pub struct TrainConfig {
     /// the soft global modes (a drift) weigh `1 + β` times more next to the stiff ones.
     /// Default 0: the plain gradient, no Hessian.
     pub newton_weight: f64,
-    /// Floor on the node normaliser's standard deviation of the velocity columns, m per
-    /// frame. Default 0: the statistics' own.
-    pub velocity_std_floor: f64,
     /// PCG iterations of the Newton signal. Default 20.
     pub signal_cg_iterations: usize,
     /// Relative residual at which the Newton signal's PCG stops. Default 1e-4.
@@ -147,7 +144,6 @@ impl Default for TrainConfig {
             pool_frames: 60,
             pool_stride: 5,
             newton_weight: 0.0,
-            velocity_std_floor: 0.0,
             signal_cg_iterations: 20,
             signal_cg_tolerance: 1e-4,
         }

@@ -695,12 +695,6 @@ impl Trainer {
         if self.progress.warmup_done < self.config.train.warmup_iterations {
             let r = self.warmup_step()?;
             if self.progress.warmup_done == self.config.train.warmup_iterations {
-                let floor = self.config.train.velocity_std_floor;
-                if floor > 0.0 {
-                    for k in 0..3 {
-                        self.model.normalizers.node.set_floor(k, floor);
-                    }
-                }
                 tracing::info!(count = self.model.normalizers.node.count(), "warm-up done: normalisers fixed");
             }
             return Ok(Some(r));
