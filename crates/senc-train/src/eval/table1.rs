@@ -71,11 +71,12 @@ pub struct VolumeMeter {
 }
 
 impl VolumeMeter {
-    /// For the garment's closure (the scene's holes closed).
-    pub fn new(g: &Garment) -> Result<Self, TrainError> {
+    /// For the garment's closure (the scene's holes closed), measured with `options` (the
+    /// run's `[energy.self_collision] gia`, so that Table 1 counts what training minimises).
+    pub fn new(g: &Garment, options: GiaOptions) -> Result<Self, TrainError> {
         let closure = close_holes(&g.rest, &g.scene.hole_selection()?)?;
         let ws = GiaWorkspace::new(&closure);
-        Ok(Self { closure, ws, options: GiaOptions::default() })
+        Ok(Self { closure, ws, options })
     }
 
     /// Penetration volume of `x`, m³.
@@ -155,7 +156,7 @@ impl Setup {
             )));
         }
         let energy = cfg.energy_for(2, scene_material(&g)?, g.scene.config.external_force.acceleration);
-        let meter = VolumeMeter::new(&g)?;
+        let meter = VolumeMeter::new(&g, cfg.energy.self_collision.gia)?;
         Ok(Self { cfg, g, energy, meter })
     }
 
