@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{anyhow, Result};
+use anyhow::Result;
 use senc_model::burn::tensor::Device;
 use senc_model::Model;
 use senc_train::eval::Method;
@@ -22,7 +22,7 @@ pub struct Args {
     /// Config (default: the checkpoint's own).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Motion name (a training or test motion of the config's scene).
+    /// Motion: a scene motion's name or a clip file (`.bvh`, `.msgpack`).
     #[arg(long)]
     pub motion: String,
     /// Frames to simulate.
@@ -41,10 +41,7 @@ pub fn run(a: &Args) -> Result<()> {
     let m = Method::new(&a.checkpoint, a.config.as_deref())?;
     let cfg = RunConfig::read(&m.config)?;
     let g = m.load_garment(&cfg)?;
-    let (motion, _) = g.scene.motion(&a.motion).ok_or_else(|| {
-        let names: Vec<&str> = g.scene.train.iter().chain(&g.scene.test).map(|m| m.name.as_str()).collect();
-        anyhow!("no motion named {}; this scene has {}", a.motion, names.join(", "))
-    })?;
+    let motion = &g.scene.resolve_motion(&a.motion)?;
     let material = scene_material(&g)?;
     let energy = cfg.energy_for(2, material, g.scene.config.external_force.acceleration);
     let model = Model::load(&m.checkpoint, &Device::flex())?;

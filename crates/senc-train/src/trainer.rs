@@ -96,32 +96,13 @@ pub struct Progress {
     pub sequence: Option<Sequence>,
     /// Whether both phases are done.
     pub finished: bool,
-    /// States the network reached in its own rollouts (`[train] pool_share`).
+    /// States the network reached when rolled out alone (`[train] pool_share`), as
+    /// sequences at the frame they reached; a training sequence may start from one.
     #[serde(default)]
-    pub pool: Vec<PooledState>,
+    pub pool: Vec<Sequence>,
     /// Where the next pooled state goes once the pool is full.
     #[serde(default)]
     pub pool_next: usize,
-}
-
-/// A state the network reached when rolled out alone (see `[train] pool_share`): a
-/// training sequence may start from it instead of from a skinned garment.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct PooledState {
-    /// Index into the run's garments.
-    pub garment: usize,
-    /// Index into that garment's training motions.
-    pub motion: usize,
-    /// Frame of `curr` in the motion.
-    pub frame: usize,
-    /// Material of the rollout that reached it.
-    pub material: Material,
-    /// External acceleration of that rollout, m/s².
-    pub external: [f64; 3],
-    /// Cloth at t−1, m.
-    pub prev: Vec<Vec3>,
-    /// Cloth at t, m.
-    pub curr: Vec<Vec3>,
 }
 
 /// What one iteration did.
@@ -395,17 +376,7 @@ impl Trainer {
             let p = &self.progress.pool[self.rng.random_range(0..self.progress.pool.len())];
             if p.frame + len + 1 < self.garments[p.garment].scene.train[p.motion].n_frames() {
                 self.sequence_id += 1;
-                return Ok(Sequence {
-                    garment: p.garment,
-                    motion: p.motion,
-                    frame: p.frame,
-                    steps_left: len,
-                    material: p.material,
-                    external: p.external,
-                    prev: p.prev.clone(),
-                    curr: p.curr.clone(),
-                    first_step: false,
-                });
+                return Ok(Sequence { steps_left: len, first_step: false, ..p.clone() });
             }
         }
         let gi = self.rng.random_range(0..self.garments.len());
@@ -664,15 +635,7 @@ impl Trainer {
             }
             advance(&mut s, next, &g);
             if step % t.pool_stride == 0 {
-                let state = PooledState {
-                    garment: s.garment,
-                    motion: s.motion,
-                    frame: s.frame,
-                    material: s.material,
-                    external: s.external,
-                    prev: s.prev.clone(),
-                    curr: s.curr.clone(),
-                };
+                let state = Sequence { steps_left: 0, ..s.clone() };
                 let pool = &mut self.progress.pool;
                 if pool.len() < t.pool_size {
                     pool.push(state);
