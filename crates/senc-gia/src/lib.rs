@@ -14,16 +14,31 @@
 //! with SENC's fixed barycentric weights) and through the fan centroids.
 //!
 //! # Holes left open
-//! The winding number is defined for a closed surface. For a hole left open (not fanned by
-//! the closure) the winding rule measures the surface closed by a *virtual* fan over the
-//! hole (the fan [`senc_geom::close_holes`] would add): its ray queries count the fan, so
-//! winding numbers are those of the fan-closed surface, but the fan is neither tested for
-//! crossings nor part of the sum. The volume is therefore the fan-closed surface's volume
-//! whenever nothing passes through the hole's fan and no penetrated region reaches the hole.
-//! A patch of nonzero weight that reaches an open hole, and the two sides of an
-//! intersection curve that runs into one (which the cut cannot separate), are skipped and
-//! counted in [`Diagnostics::patches_skipped`]; nothing is guessed. Close every hole
-//! ([`senc_geom::HoleSelection::All`], the default of every config) for exact answers.
+//! The winding number is an integer only for a closed surface. A hole that the closure
+//! leaves open (not fanned, e.g. a collar) is closed *virtually* for this measurement:
+//! [`GiaWorkspace::penetration`] fans every open loop to its centroid (the fan
+//! [`senc_geom::close_holes`] would add), finds the crossings of that virtually closed
+//! surface, the fans' included, and measures it exactly as a closed one. So:
+//!
+//! - **The volume is the penetration volume of the surface with every open hole closed by a
+//!   fan to the loop's mean**: the space that surface covers twice or more, or inside out.
+//!   It is the number a closure of that hole gives, and the number of libigl's arrangement
+//!   with every hole fanned (`penetration_oracle.py --close-holes`); nothing is skipped for
+//!   reaching a hole.
+//! - A part of the garment that passes through an open hole's fan bounds penetrated space
+//!   with the fan and is counted like any other crossing; [`Diagnostics::virtual_fan_pairs`]
+//!   counts the crossing pairs that involve a virtual fan, so a caller can tell whether the
+//!   fan shaped the answer.
+//! - The fan's centroid is not a vertex of the result: its gradient is shared equally by the
+//!   loop's vertices (the centroid is their mean), as for a hole the closure fans.
+//!
+//! Why a fan: without a closing surface "inside" has no meaning (the generalized winding
+//! number of an open surface is not an integer), any closing surface gives a definition, and
+//! the fan is the one the paper uses for the holes it closes. Leaving a hole open therefore
+//! changes what the rest of senc sees (the garment's own faces and vertices), not this
+//! volume. [`GiaWorkspace::analyse`], which is handed crossings that hold no fan, keeps the
+//! fans only in its rays and skips a patch of nonzero weight that reaches an open hole
+//! (counted in [`Diagnostics::patches_skipped`]).
 //!
 //! # Example
 //! ```
@@ -55,7 +70,7 @@ pub mod winding;
 
 use senc_geom::cut::CutMesh;
 use senc_geom::intersect::{ray_winding_brute, SelfIntersections, SelfIntersector};
-use senc_geom::{Closure, Vec3};
+use senc_geom::{close_holes, Closure, HoleSelection, Vec3};
 
 pub use paths::{Contour, PathKind};
 pub use winding::Patch;
@@ -180,6 +195,12 @@ pub struct Diagnostics {
     pub gradient_fallbacks: usize,
     /// Regions dropped because a contour of their group failed ([`VolumeRule::SmallerSide`]).
     pub groups_skipped: usize,
+    /// Crossing face pairs that involve a virtual fan (a hole the closure leaves open, see
+    /// the crate docs, "Holes left open"): the surface passes through the hole's fan, or a
+    /// fan over a tangled hole crosses itself. These crossings are measured like any other;
+    /// this counts them so that a caller can tell whether the open hole's closure shaped the
+    /// answer. Included in `intersecting_pairs`.
+    pub virtual_fan_pairs: usize,
 }
 
 /// Result of a penetration query.
@@ -215,6 +236,10 @@ pub enum GiaError {
         /// Faces given.
         got: usize,
     },
+    /// The virtual fan over a hole left open could not be placed (its centroid is not
+    /// finite: coordinates near the largest f64). Scale the mesh to metres.
+    #[error("the virtual fan over a hole left open could not be placed: {0}")]
+    VirtualClosure(senc_geom::MeshError),
 }
 
 /// Reusable state between queries on one closed mesh whose positions change: the BVH (refit,
@@ -222,8 +247,13 @@ pub enum GiaError {
 #[derive(Debug)]
 pub struct GiaWorkspace {
     n_faces: usize,
+    /// The closure's mesh with every hole it leaves open fanned to its centroid (the
+    /// *virtual* closure, see the crate docs); `None` when nothing is left open.
+    virtual_closure: Option<Closure>,
+    /// Self-intersection of the analysed mesh: the virtual closure's where there is one.
     intersector: SelfIntersector,
-    /// Boundary loops of the closed mesh (holes left open), for the rays' virtual fans.
+    /// Boundary loops of the closure's mesh (holes left open), for the rays' virtual fans of
+    /// [`Self::analyse`], which sees only the crossings it is given.
     open_loops: Vec<Vec<u32>>,
     flood: flood::Scratch,
     winding: winding::Scratch,
@@ -239,12 +269,18 @@ impl GiaWorkspace {
     /// A workspace for meshes with `closure`'s topology.
     pub fn new(closure: &Closure) -> Self {
         let mesh = closure.mesh();
+        let open_loops = mesh.topology().boundary_loops().to_vec();
+        // Closing every loop of a valid mesh cannot fail; should it, the rays' virtual fans
+        // of `analyse` remain (patches reaching the hole skipped).
+        let virtual_closure = if open_loops.is_empty() { None } else { close_holes(mesh, &HoleSelection::All).ok() };
+        let intersector = SelfIntersector::new(virtual_closure.as_ref().map_or(mesh, Closure::mesh));
         Self {
             n_faces: mesh.n_faces(),
+            virtual_closure,
             // Fans are tested against each other too: a fan over a tangled hole can cross
             // itself, and the winding numbers change across those crossings as across any.
-            intersector: SelfIntersector::new(mesh),
-            open_loops: mesh.topology().boundary_loops().to_vec(),
+            intersector,
+            open_loops,
             flood: flood::Scratch::default(),
             winding: winding::Scratch::default(),
             nodes: Vec::new(),
@@ -260,15 +296,36 @@ impl GiaWorkspace {
         if mesh.n_faces() != self.n_faces {
             return Err(GiaError::WrongMesh { expected: self.n_faces, got: mesh.n_faces() });
         }
+        if let Some(mut virt) = self.virtual_closure.take() {
+            let moved = virt.update(mesh.positions());
+            let out = moved.map(|()| {
+                let inter = self.intersector.find(virt.mesh());
+                let mut out = self.analyse_with(&virt, &inter, options, true, &[]);
+                out.diagnostics.virtual_fan_pairs =
+                    inter.segments.iter().filter(|s| s.faces.iter().any(|&f| f as usize >= self.n_faces)).count();
+                out.gradient = closure.pull_back(&out.gradient);
+                out.area_gradient = closure.pull_back(&out.area_gradient);
+                out
+            });
+            self.virtual_closure = Some(virt);
+            return out.map_err(GiaError::VirtualClosure);
+        }
         let inter = self.intersector.find(mesh);
-        Ok(self.analyse_with(closure, &inter, options, true))
+        Ok(self.analyse_with(closure, &inter, options, true, &[]))
     }
 
-    /// The analysis of a given intersection set (exposed for tests and tools). The winding
-    /// rule's ray queries test every face here (the BVH's boxes may belong to other
-    /// positions), so this is slower than [`Self::penetration`].
+    /// The analysis of a given intersection set of `closure.mesh()` (exposed for tests and
+    /// tools). The winding rule's ray queries test every face here (the BVH's boxes may
+    /// belong to other positions), so this is slower than [`Self::penetration`]. With holes
+    /// left open, `inter` holds no crossing of their virtual fans: the rays still count the
+    /// fans, but a patch of nonzero weight that reaches an open hole is skipped (counted in
+    /// [`Diagnostics::patches_skipped`]); [`Self::penetration`] measures the virtual closure
+    /// instead and skips nothing there.
     pub fn analyse(&mut self, closure: &Closure, inter: &SelfIntersections, options: &GiaOptions) -> Penetration {
-        self.analyse_with(closure, inter, options, false)
+        let loops = std::mem::take(&mut self.open_loops);
+        let out = self.analyse_with(closure, inter, options, false, &loops);
+        self.open_loops = loops;
+        out
     }
 
     fn analyse_with(
@@ -277,6 +334,7 @@ impl GiaWorkspace {
         inter: &SelfIntersections,
         options: &GiaOptions,
         bvh_current: bool,
+        loops: &[Vec<u32>],
     ) -> Penetration {
         let mesh = closure.mesh();
         let nv = mesh.n_vertices();
@@ -310,7 +368,7 @@ impl GiaWorkspace {
         }
         match options.rule {
             VolumeRule::Winding => {
-                let (intersector, loops) = (&self.intersector, &self.open_loops);
+                let intersector = &self.intersector;
                 let has_open = !loops.is_empty();
                 let classified =
                     winding::classify(mesh, &cut, inter, &nodes, &mut self.winding, has_open, |ray, skip| {

@@ -177,3 +177,72 @@ fn garment_frames_match_libigl_with_nothing_skipped() {
         }
     }
 }
+
+/// Holes left open are closed virtually by fans to their centroids (crate docs, "Holes left
+/// open"): on every committed garment frame, leaving any one hole open, or all of them,
+/// gives libigl's answer with every hole fanned, skips nothing, and gives the gradient of
+/// the closure that fans them (the same function of the garment's vertices).
+#[test]
+fn garment_frames_with_open_holes_measure_the_virtually_closed_surface() {
+    for a in garment_answers() {
+        let (g, f) = (a["garment"].as_str().unwrap(), a["frame"].as_u64().unwrap());
+        let mesh = garment_frame(g, f);
+        let expect = a["penetration_volume_m3"].as_f64().unwrap();
+        let n_loops = mesh.topology().boundary_loops().len();
+        assert!(n_loops >= 2, "{g}: {n_loops} loops");
+        let all = close_holes(&mesh, &HoleSelection::All).unwrap();
+        let closed = GiaWorkspace::new(&all).penetration(&all, &GiaOptions::default()).unwrap();
+        let scale = closed.gradient.iter().map(|v| v.norm()).fold(0.0, f64::max);
+        assert!(scale > 0.0, "{g} {f}");
+        let mut selections: Vec<HoleSelection> = (0..n_loops).map(|i| HoleSelection::AllExcept(vec![i])).collect();
+        selections.push(HoleSelection::None);
+        for sel in selections {
+            let closure = close_holes(&mesh, &sel).unwrap();
+            let p = GiaWorkspace::new(&closure).penetration(&closure, &GiaOptions::default()).unwrap();
+            let d = &p.diagnostics;
+            assert!(
+                (p.volume - expect).abs() <= 1e-6 * expect,
+                "{g} {f} {sel:?}: {} vs libigl {expect} {d:?}",
+                p.volume
+            );
+            assert_eq!(d.patches_skipped + d.inconsistent_walls + d.unresolved_groups, 0, "{g} {f} {sel:?}: {d:?}");
+            assert_eq!(d.intersecting_pairs, closed.diagnostics.intersecting_pairs, "{g} {f} {sel:?}");
+            assert_eq!(p.gradient.len(), mesh.n_vertices());
+            for (x, y) in p.gradient.iter().zip(&closed.gradient) {
+                assert!((x - y).norm() <= 1e-9 * scale, "{g} {f} {sel:?}: {x:?} vs {y:?}");
+            }
+        }
+    }
+}
+
+/// `open_box_pierced`: a unit box with its top left open (one square loop), pierced
+/// through the opening by one closed box that touches no wall and by one that also crosses a
+/// wall. With the opening left open, the first crosses only the virtual fan over it; the
+/// volume is the parts below the opening (analytic, and libigl's arrangement with the hole
+/// fanned), in both gradient modes, whether the hole is closed or left open.
+#[test]
+fn boxes_through_an_open_hole_are_measured_against_its_virtual_fan() {
+    let name = "open_box_pierced";
+    let mesh = fixture(name).unwrap();
+    assert_eq!(mesh.topology().boundary_loops().len(), 1);
+    let a = answer(name);
+    let expect = a["penetration_volume_m3"].as_f64().unwrap();
+    let exact = a["analytic_volume_m3"].as_f64().unwrap();
+    assert!((expect - exact).abs() <= 1e-12, "libigl {expect} vs analytic {exact}");
+    for sel in [HoleSelection::None, HoleSelection::All] {
+        let closure = close_holes(&mesh, &sel).unwrap();
+        for mode in [GradientMode::Exact, GradientMode::FixedBarycentric] {
+            let p = GiaWorkspace::new(&closure)
+                .penetration(&closure, &GiaOptions { gradient: mode, ..Default::default() })
+                .unwrap();
+            let d = &p.diagnostics;
+            assert!((p.volume - expect).abs() <= 1e-9, "{sel:?} {mode:?}: {} vs {expect} {d:?}", p.volume);
+            assert_eq!(d.patches_skipped + d.inconsistent_walls, 0, "{d:?}");
+            if sel == HoleSelection::None {
+                assert!(d.virtual_fan_pairs > 0 && d.virtual_fan_pairs < d.intersecting_pairs, "{d:?}");
+            } else {
+                assert_eq!(d.virtual_fan_pairs, 0, "{d:?}");
+            }
+        }
+    }
+}

@@ -97,6 +97,19 @@ pub(super) fn nested_boxes() -> Result<TriMesh, ShapeError> {
 pub(super) fn elbow_fold() -> Result<TriMesh, ShapeError> {
     jittered(bent_tube(0.1, 0.8, 160f64.to_radians(), 0.03, 32, 24))
 }
+/// A unit box whose top (z = 1) is left open, pierced by two closed boxes: one pushed in
+/// through the opening without touching the walls, one through the opening and the wall
+/// x = 1. With the opening fanned, the parts below it are penetrated:
+/// 0.38 · 0.39 · 0.3 + 0.28 · 0.32 · 0.2 m³.
+pub(super) fn open_box_pierced() -> Result<TriMesh, ShapeError> {
+    let outer = grid_box(v(0.0, 0.0, 0.0), v(1.0, 1.0, 1.0), 1)?;
+    let faces: Vec<[u32; 3]> =
+        outer.faces().iter().copied().filter(|t| !t.iter().all(|&i| outer.positions()[i as usize].z == 1.0)).collect();
+    let open = TriMesh::new(outer.positions().to_vec(), faces)?;
+    let through_top = grid_box(v(0.23, 0.27, 0.7), v(0.61, 0.66, 1.4), 12)?;
+    let through_corner = grid_box(v(0.72, 0.31, 0.8), v(1.2, 0.63, 1.3), 12)?;
+    merge(&merge(&open, &through_top)?, &through_corner)
+}
 
 /// Every named fixture and benchmark mesh. Grid-made ones (`*_grid`) have exact
 /// degeneracies; each `*_jitter` twin is the same mesh after
@@ -227,6 +240,12 @@ pub const FIXTURES: &[Fixture] = &[
         description: "bent_tube(radius 0.1, leg 0.8, bend 160 deg, offset 0.03, n_around 32, n_along_per_leg 24) jittered",
         close_holes: false,
         make: elbow_fold,
+    },
+    Fixture {
+        name: "open_box_pierced",
+        description: "grid_box((0,0,0),(1,1,1),1) with its top open, pierced through the opening by grid_box((0.23,0.27,0.7),(0.61,0.66,1.4),12) and through opening and wall x=1 by grid_box((0.72,0.31,0.8),(1.2,0.63,1.3),12); volume with the opening fanned 0.38*0.39*0.3 + 0.28*0.32*0.2 m^3",
+        close_holes: true,
+        make: open_box_pierced,
     },
 ];
 
