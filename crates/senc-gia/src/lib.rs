@@ -172,9 +172,23 @@ pub struct Diagnostics {
     /// Ray queries made (one per group of patches linked by intersection segments, more
     /// where a probe's origin lay exactly on another face).
     pub winding_rays: usize,
-    /// Groups of patches whose every probe origin lay exactly on another face: their
-    /// patches are skipped.
+    /// Groups of patches whose every probe origin lay exactly on another face, or whose
+    /// probes gave no two agreeing winding numbers: their patches are skipped.
     pub unresolved_groups: usize,
+    /// Groups of patches whose two probes disagreed (a probe point rounded onto the wrong
+    /// side of a face coplanar with its own: grid-snapped meshes): unresolved, their
+    /// patches skipped (also counted in `unresolved_groups`).
+    pub winding_ray_disagreements: usize,
+    /// Tangles (patches linked through intersection segments) whose weighted patches do not
+    /// close up (their weighted vector area is not zero, see `winding`'s closure check): a
+    /// classification error, seen only where faces of zero area are cut. Their patches are
+    /// skipped (counted in `patches_skipped`).
+    pub unclosed_tangles: usize,
+    /// 1 when the weighted patches summed to a negative volume (a volume is never
+    /// negative, so some classification was wrong that no local check caught; seen only on
+    /// grid-snapped random meshes with faces of zero area): every weighted patch is then
+    /// skipped and the volume is 0. Otherwise 0.
+    pub negative_sums: usize,
     /// Contours whose two fills met (the contour does not separate the surface): skipped
     /// ([`VolumeRule::SmallerSide`]).
     pub fills_met: usize,
@@ -320,7 +334,9 @@ impl GiaWorkspace {
     /// left open, `inter` holds no crossing of their virtual fans: the rays still count the
     /// fans, but a patch of nonzero weight that reaches an open hole is skipped (counted in
     /// [`Diagnostics::patches_skipped`]); [`Self::penetration`] measures the virtual closure
-    /// instead and skips nothing there.
+    /// instead and skips nothing there. In [`GradientMode::FixedBarycentric`] the
+    /// intersection nodes sit at the recorded weights of `inter` (SENC's frozen-weight
+    /// volume, for checking that mode's gradient); [`Self::penetration`] places them exactly.
     pub fn analyse(&mut self, closure: &Closure, inter: &SelfIntersections, options: &GiaOptions) -> Penetration {
         let loops = std::mem::take(&mut self.open_loops);
         let out = self.analyse_with(closure, inter, options, false, &loops);
@@ -358,7 +374,10 @@ impl GiaWorkspace {
                 out.diagnostics.open_paths += 1;
             }
         }
-        volume::node_positions(mesh, inter, &cut, options.gradient, &mut self.nodes);
+        // The volume is measured with exact nodes; `analyse` keeps SENC's frozen weights in
+        // fixed-weight mode (see `volume::node_positions`).
+        let placement = if bvh_current { GradientMode::Exact } else { options.gradient };
+        volume::node_positions(mesh, inter, &cut, placement, &mut self.nodes);
         let nodes = std::mem::take(&mut self.nodes);
         let mut node_grad = std::mem::take(&mut self.node_grad);
         let mut area_node_grad = std::mem::take(&mut self.area_node_grad);
@@ -381,18 +400,33 @@ impl GiaWorkspace {
                 out.diagnostics.inconsistent_walls = classified.inconsistent_walls;
                 out.diagnostics.winding_rays = classified.rays;
                 out.diagnostics.unresolved_groups = classified.unresolved;
+                out.diagnostics.winding_ray_disagreements = classified.ray_disagreements;
                 out.patches = classified.patches;
                 out.diagnostics.patches = out.patches.len();
-                out.diagnostics.patches_skipped = out.patches.iter().filter(|p| p.skipped).count();
-                winding::accumulate(
+                out.diagnostics.unclosed_tangles = winding::accumulate(
                     mesh,
                     &cut,
                     &nodes,
                     &self.winding,
+                    &classified.tangle_of,
+                    placement == GradientMode::Exact,
                     &mut out.patches,
                     &mut node_grad,
                     &mut area_node_grad,
                 );
+                // A volume is never negative; a negative sum of closed tangles means a
+                // classification error that no local check caught (seen only on grid-snapped
+                // meshes with faces of zero area): nothing is reported rather than a guess.
+                let total: f64 = out.patches.iter().map(|p| p.volume).sum();
+                let scale: f64 = out.patches.iter().map(|p| p.volume.abs()).sum();
+                if total < -1e-9 * scale {
+                    out.diagnostics.negative_sums = 1;
+                    for p in out.patches.iter_mut().filter(|p| p.weight != 0) {
+                        (p.weight, p.skipped, p.volume, p.area) = (0, true, 0.0, 0.0);
+                    }
+                    node_grad.iter_mut().chain(area_node_grad.iter_mut()).for_each(|g| *g = Vec3::zeros());
+                }
+                out.diagnostics.patches_skipped = out.patches.iter().filter(|p| p.skipped).count();
                 out.volume = out.patches.iter().map(|p| p.volume).sum();
                 out.area = out.patches.iter().map(|p| p.area).sum();
             }

@@ -17,6 +17,14 @@ use crate::GradientMode;
 /// Crossing nodes (triple points, [`CutMesh::crossings`]) follow: exactly, the crossing of
 /// the lines through their two chord edges within the face; with fixed weights, the
 /// recorded barycentric combination of the face's corners.
+///
+/// [`crate::GiaWorkspace::penetration`] places the nodes exactly in both modes (the volume
+/// is a function of the geometry, the mode only decides the chain rule): the fixed-weight
+/// positions equal `X` only up to rounding, and not at all where the recorded barycentric
+/// coordinates are meaningless (a face of zero area), where the pieces would no longer meet
+/// and the sum over them would not be a closed surface's volume. The fixed-weight positions
+/// serve [`crate::GiaWorkspace::analyse`]: on crossings found at other positions they give
+/// SENC's frozen-weight volume, whose derivative the fixed-weight gradient is.
 pub fn node_positions(
     mesh: &TriMesh,
     inter: &SelfIntersections,
@@ -135,7 +143,7 @@ pub fn add_volume_gradient(mesh: &TriMesh, cut: &CutMesh, nodes: &[Vec3], id: u3
 }
 
 /// Vector area `½ Σ p_k × p_{k+1}` of fill id `id` (holes subtract).
-fn vector_area(mesh: &TriMesh, cut: &CutMesh, nodes: &[Vec3], id: u32) -> Vec3 {
+pub(crate) fn vector_area(mesh: &TriMesh, cut: &CutMesh, nodes: &[Vec3], id: u32) -> Vec3 {
     let mut a = Vec3::zeros();
     for_each_cycle(mesh, cut, id, |cycle| {
         for k in 0..cycle.len() {

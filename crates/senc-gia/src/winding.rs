@@ -7,8 +7,9 @@
 //! inside of a patch, so the winding number `w(x)` of the surface around a point `x` is
 //! constant on each side of it: `w_out` on the side its normals point to and `w_in` on the
 //! other. Crossing the surface against its normal enters it once more, so `w_in = w_out + 1`.
-//! One exact ray query per patch ([`senc_geom::intersect::AxisRay`], from a point inside one
-//! of its faces, leaving on the outward side) gives `w_out`.
+//! An exact ray query ([`senc_geom::intersect::AxisRay`], from a point inside one of a
+//! patch's faces, leaving on the outward side) gives its `w_out`; the differences across
+//! intersection segments give the rest of its group, and a second probe must agree.
 //!
 //! # Weights
 //! The penetration volume is `V = ∫ f(w(x)) dx` with `f(w) = 1` where `w ≥ 2` or `w ≤ −1`
@@ -194,8 +195,14 @@ pub(crate) struct Classified {
     /// Ray queries made (one per connected group of patches, more where an origin lay
     /// exactly on another face).
     pub(crate) rays: usize,
-    /// Groups of patches where every probe was refused (their patches are skipped).
+    /// Groups of patches where every probe was refused, or no two probes agreed (their
+    /// patches are skipped).
     pub(crate) unresolved: usize,
+    /// Groups whose two probes disagreed (unresolved, skipped).
+    pub(crate) ray_disagreements: usize,
+    /// Per patch, its tangle (a representative patch): groups linked through shared
+    /// segments.
+    pub(crate) tangle_of: Vec<u32>,
 }
 
 /// `w_out(left) − w_out(right)` across the chord `from → to` of face `f` along segment
@@ -282,9 +289,9 @@ fn chord_sign(mesh: &TriMesh, inter: &SelfIntersections, nodes: &[Vec3], f: u32,
 }
 
 /// Classifies every patch: the winding difference across every intersection segment comes
-/// from [`chord_sign`]; one ray query per connected group of patches (`ray(ray, skip)`
-/// returns the signed crossing count), from the group's best probe (an uncut face's
-/// centroid where there is one), fixes the group's absolute winding numbers; then every
+/// from [`chord_sign`]; ray queries per connected group of patches (`ray(ray, skip)`
+/// returns the signed crossing count), from the group's two best probes (uncut faces'
+/// centroids first), fix the group's absolute winding numbers if they agree; then every
 /// segment is checked. Volumes and areas are left at 0.
 pub(crate) fn classify(
     mesh: &TriMesh,
@@ -353,6 +360,7 @@ pub(crate) fn classify(
     let mut group_of = vec![u32::MAX; n_patches];
     let mut rays = 0;
     let mut unresolved = 0;
+    let mut ray_disagreements = 0;
     let mut group: Vec<u32> = Vec::new();
     let mut candidates: Vec<(bool, f64, u32, u32)> = Vec::new();
     for start in 0..n_patches {
@@ -381,22 +389,18 @@ pub(crate) fn classify(
             }
         }
         candidates.sort_by(|a, b| (b.0, b.1).partial_cmp(&(a.0, a.1)).unwrap_or(Ordering::Equal));
-        let found = candidates.iter().find_map(|&(_, _, id, p)| {
-            let (r, skip) = probe_ray(mesh, cut, nodes, id);
-            rays += 1;
-            ray(&r, skip).map(|w| (p, w))
-        });
-        let Some((root, w)) = found else {
-            unresolved += 1;
-            for &p in &group {
-                patches[p as usize].skipped = true;
-            }
-            continue;
-        };
-        // Propagate: w(b) = w(a) − (w_a − w_b).
-        patches[root as usize].winding_outside = w;
-        let mut done: Vec<u32> = vec![root];
-        let mut seen: rustc_hash::FxHashSet<u32> = [root].into_iter().collect();
+        // Relative winding numbers first (the group's first patch at 0), then the probes:
+        // each ray fixes the offset of the whole group. A probe point is computed in floating
+        // point, so where another face is coplanar with its own (grid-snapped meshes) the
+        // rounding, not the perturbation that decided the crossings, can put it on the wrong
+        // side of that face and the count is off by one. So the first two probes that give a
+        // count must agree (a group with a single probe takes its count); where they differ
+        // the group is skipped as unresolved: a vote among further probes was measured to
+        // pick the wrong count on such meshes (libigl comparison in `reports/gia/`).
+        let start_patch = group[0];
+        patches[start_patch as usize].winding_outside = 0;
+        let mut done: Vec<u32> = vec![start_patch];
+        let mut seen: rustc_hash::FxHashSet<u32> = [start_patch].into_iter().collect();
         while let Some(a) = done.pop() {
             let wa = patches[a as usize].winding_outside;
             for &(b, d) in &adj[a as usize] {
@@ -405,6 +409,33 @@ pub(crate) fn classify(
                     done.push(b);
                 }
             }
+        }
+        let mut offsets: Vec<i64> = Vec::new();
+        for &(_, _, id, p) in &candidates {
+            let (r, skip) = probe_ray(mesh, cut, nodes, id);
+            rays += 1;
+            let Some(w) = ray(&r, skip) else { continue };
+            offsets.push(w - patches[p as usize].winding_outside);
+            if offsets.len() == 2 {
+                break;
+            }
+        }
+        let offset = match offsets.as_slice() {
+            [o] => *o,
+            [o, q] if o == q => *o,
+            _ => {
+                if offsets.len() == 2 {
+                    ray_disagreements += 1;
+                }
+                unresolved += 1;
+                for &p in &group {
+                    patches[p as usize].skipped = true;
+                }
+                continue;
+            }
+        };
+        for &p in &group {
+            patches[p as usize].winding_outside += offset;
         }
     }
     let mut inconsistent_walls = 0;
@@ -480,25 +511,29 @@ pub(crate) fn classify(
             i = j;
         }
     }
+    // Tangles: groups linked through shared segments. Every cell's boundary lies within
+    // one tangle per connected component (patches meet only along segments or inside a
+    // patch), which `accumulate` uses to check that the weighted patches close up.
+    let mut tangle: Vec<u32> = (0..n_patches as u32).collect();
+    for p in 0..n_patches {
+        union(&mut tangle, p as u32, group_of[p]);
+    }
+    segment_patch.sort_unstable();
+    for w in segment_patch.windows(2) {
+        if w[0].0 == w[1].0 {
+            union(&mut tangle, w[0].1, w[1].1);
+        }
+    }
+    let tangle_of: Vec<u32> = (0..n_patches as u32).map(|p| find(&mut tangle, p)).collect();
     if bad_group.iter().any(|&b| b) {
-        let mut tangle: Vec<u32> = (0..n_patches as u32).collect();
-        for p in 0..n_patches {
-            union(&mut tangle, p as u32, group_of[p]);
-        }
-        segment_patch.sort_unstable();
-        for w in segment_patch.windows(2) {
-            if w[0].0 == w[1].0 {
-                union(&mut tangle, w[0].1, w[1].1);
-            }
-        }
         let mut bad_tangle = vec![false; n_patches];
         for p in 0..n_patches {
             if bad_group[group_of[p] as usize] {
-                bad_tangle[find(&mut tangle, p as u32) as usize] = true;
+                bad_tangle[tangle_of[p] as usize] = true;
             }
         }
         for (p, patch) in patches.iter_mut().enumerate() {
-            if bad_tangle[find(&mut tangle, p as u32) as usize] {
+            if bad_tangle[tangle_of[p] as usize] {
                 patch.skipped = true;
             }
         }
@@ -537,22 +572,62 @@ pub(crate) fn classify(
             }
         };
     }
-    Classified { patches, inconsistent_walls, rays, unresolved }
+    Classified { patches, inconsistent_walls, rays, unresolved, ray_disagreements, tangle_of }
 }
 
 /// Adds each weighted patch's volume `weight · T_P` and area to `patches`, and their
-/// gradients (per cut node) to `node_grad` and `area_node_grad`.
+/// gradients (per cut node) to `node_grad` and `area_node_grad`. Returns the number of
+/// tangles skipped because their weighted patches do not close up.
+///
+/// # Closure check
+/// The weighted patches `Σ weight_P · P` are the boundary of the penetrated set, a closed
+/// surface within each tangle, so their weighted vector areas `Σ weight_P A_P` (with
+/// `A_P = ½ Σ p_k × p_{k+1}` over its cycles) vanish per tangle, up to rounding: the pieces
+/// on the two sides of a chord share its nodes. Where they do not (beyond
+/// `1e-9 Σ |A_P|`), the classification is wrong somewhere in the tangle (seen on
+/// grid-snapped meshes whose faces have zero area: the cut of such a face is not a
+/// surface), the sum would depend on the origin and can come out negative, and the
+/// tangle's patches are skipped instead (weight 0, counted). Not checked with
+/// `check_closed` false: SENC's frozen-weight nodes on moved positions do not meet exactly.
 pub(crate) fn accumulate(
     mesh: &TriMesh,
     cut: &CutMesh,
     nodes: &[Vec3],
     scratch: &Scratch,
+    tangle_of: &[u32],
+    check_closed: bool,
     patches: &mut [Patch],
     node_grad: &mut [Vec3],
     area_node_grad: &mut [Vec3],
-) {
+) -> usize {
     if patches.iter().all(|p| p.weight == 0) {
-        return;
+        return 0;
+    }
+    // Weighted vector area and total area per tangle.
+    let mut closure: Vec<(Vec3, f64)> = vec![(Vec3::zeros(), 0.0); patches.len()];
+    for id in live_ids(cut) {
+        let p = scratch.patch_of[id as usize] as usize;
+        if patches[p].weight == 0 {
+            continue;
+        }
+        let a = volume::vector_area(mesh, cut, nodes, id);
+        let t = &mut closure[tangle_of[p] as usize];
+        t.0 += a * f64::from(patches[p].weight);
+        t.1 += a.norm();
+    }
+    let open: Vec<bool> =
+        closure.iter().map(|(v, total)| check_closed && (v.norm() > 1e-9 * total || v.norm().is_nan())).collect();
+    let mut n_open = 0;
+    for (t, &o) in open.iter().enumerate() {
+        if o && closure[t].1 > 0.0 {
+            n_open += 1;
+        }
+    }
+    for (p, patch) in patches.iter_mut().enumerate() {
+        if open[tangle_of[p] as usize] && patch.weight != 0 {
+            patch.weight = 0;
+            patch.skipped = true;
+        }
     }
     for id in live_ids(cut) {
         let p = &mut patches[scratch.patch_of[id as usize] as usize];
@@ -565,4 +640,5 @@ pub(crate) fn accumulate(
         volume::add_volume_gradient(mesh, cut, nodes, id, w, node_grad);
         volume::add_area_gradient(mesh, cut, nodes, id, 1.0, area_node_grad);
     }
+    n_open
 }
