@@ -37,6 +37,13 @@
 //! as its exact side test says. Every patch of a tangle (patches linked through walls and
 //! shared segments) that holds an inconsistent wall gets weight 0 and is counted
 //! ([`crate::Diagnostics::patches_skipped`]): no partial sum is reported, nothing guessed.
+//!
+//! Two probes per group must give the same winding numbers (a probe point is rounded onto
+//! its face's plane, and a coplanar face can then be on the wrong side of it); a group whose
+//! probes disagree is skipped. The weighted patches of each tangle must close up (their
+//! weighted vector area vanishes: they bound the penetrated set), or the tangle is skipped; and a
+//! negative total, which no volume can be, is dropped whole
+//! ([`crate::Diagnostics::negative_sums`]).
 
 use senc_geom::cut::{edge_node, face_node, CutMesh, EdgeTag};
 use std::cmp::Ordering;

@@ -289,3 +289,61 @@ fn equal_boxes_gradient_has_no_net_force_or_torque() {
         }
     }
 }
+
+/// A flat sheet closed by the fan over its boundary: the fan lies in the sheet's plane and
+/// overlaps it. Exactly flat, every crossing between the two is decided by the perturbation
+/// alone and every probe point lies on a coplanar face, so the winding numbers are
+/// unresolved: nothing is measured (volume 0, gradient 0, counted as skipped). Bent out of
+/// its plane by `noise`, the sheet and fan enclose thin cells: the volume scales with the
+/// noise and the gradient stays bounded by the areas of the cells (it is the one-sided
+/// derivative `dV/dn = area`), in both modes, never the inverse of a vanishing angle.
+#[test]
+fn a_flat_sheet_closed_by_its_coplanar_fan_has_a_bounded_gradient() {
+    let (n, size) = (6usize, 0.5);
+    let h = size / n as f64;
+    let mut pos = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            pos.push(Vec3::new(i as f64 * h - 0.5 * size, 1.0, j as f64 * h - 0.5 * size));
+        }
+    }
+    let idx = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    let mut faces = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
+            if (i + j) % 2 == 0 {
+                faces.extend([[a, d, c], [a, c, b]]);
+            } else {
+                faces.extend([[a, d, b], [b, d, c]]);
+            }
+        }
+    }
+    let flat = TriMesh::new(pos, faces).unwrap();
+    let area = size * size;
+    let mut rng = 12345u64;
+    for noise in [0.0, 1e-9, 1e-6] {
+        let moved: Vec<Vec3> = flat
+            .positions()
+            .iter()
+            .map(|p| {
+                rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let r = (rng >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0;
+                p + Vec3::new(0.0, r * noise, 0.0)
+            })
+            .collect();
+        let m = flat.with_positions(moved).unwrap();
+        for mode in [GradientMode::Exact, GradientMode::FixedBarycentric] {
+            let p = pen(&m, &GiaOptions { gradient: mode, ..Default::default() });
+            let g = p.gradient.iter().map(|v| v.norm()).fold(0.0, f64::max);
+            let d = &p.diagnostics;
+            assert!(p.volume >= 0.0 && p.volume <= noise * area, "{noise} {mode:?}: volume {} {d:?}", p.volume);
+            assert!(g <= area, "{noise} {mode:?}: gradient {g} for volume {} {d:?}", p.volume);
+            if noise == 0.0 {
+                assert!(p.volume == 0.0 && g == 0.0 && d.patches_skipped > 0, "{d:?}");
+            } else {
+                assert!(p.volume > 0.0 && g > 0.0 && d.patches_skipped == 0, "{noise} {mode:?}: {d:?}");
+            }
+        }
+    }
+}
