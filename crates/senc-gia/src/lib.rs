@@ -189,6 +189,10 @@ pub struct Diagnostics {
     /// grid-snapped random meshes with faces of zero area): every weighted patch is then
     /// skipped and the volume is 0. Otherwise 0.
     pub negative_sums: usize,
+    /// Tangles whose penetrated cells are flat (mean thickness at most
+    /// [`winding::FLAT_THICKNESS`] of the mesh's size: faces coinciding up to rounding, e.g.
+    /// a flat sheet and the fan in its plane): they contribute no volume and no gradient.
+    pub flat_tangles: usize,
     /// Contours whose two fills met (the contour does not separate the surface): skipped
     /// ([`VolumeRule::SmallerSide`]).
     pub fills_met: usize,
@@ -403,7 +407,7 @@ impl GiaWorkspace {
                 out.diagnostics.winding_ray_disagreements = classified.ray_disagreements;
                 out.patches = classified.patches;
                 out.diagnostics.patches = out.patches.len();
-                out.diagnostics.unclosed_tangles = winding::accumulate(
+                (out.diagnostics.unclosed_tangles, out.diagnostics.flat_tangles) = winding::accumulate(
                     mesh,
                     &cut,
                     &nodes,

@@ -582,9 +582,22 @@ pub(crate) fn classify(
     Classified { patches, inconsistent_walls, rays, unresolved, ray_disagreements, tangle_of }
 }
 
+/// Relative mean thickness (of the mesh's bounding-box diagonal) below which a tangle's
+/// penetrated cells count as flat (see [`accumulate`]): about 10⁴ roundings of a coordinate.
+pub const FLAT_THICKNESS: f64 = 1e-12;
+
 /// Adds each weighted patch's volume `weight · T_P` and area to `patches`, and their
 /// gradients (per cut node) to `node_grad` and `area_node_grad`. Returns the number of
-/// tangles skipped because their weighted patches do not close up.
+/// tangles skipped because their weighted patches do not close up, and of tangles left out
+/// as flat.
+///
+/// # Flat tangles
+/// A tangle whose penetrated cells have a mean thickness `|V_t| / A_t` of at most
+/// [`FLAT_THICKNESS`] times the mesh's size (its weighted volume against its weighted
+/// patches' area) encloses no volume the coordinates resolve: faces that coincide up to
+/// rounding (a flat sheet closed by the fan in its own plane). There the volume is a kink at
+/// zero, `V ≈ A |t|`, and its derivative the one-sided `± A n` picked by rounding: so the
+/// tangle contributes neither volume nor gradient (not skipped: its answer, 0, is known).
 ///
 /// # Closure check
 /// The weighted patches `Σ weight_P · P` are the boundary of the penetrated set, a closed
@@ -606,34 +619,53 @@ pub(crate) fn accumulate(
     patches: &mut [Patch],
     node_grad: &mut [Vec3],
     area_node_grad: &mut [Vec3],
-) -> usize {
+) -> (usize, usize) {
     if patches.iter().all(|p| p.weight == 0) {
-        return 0;
+        return (0, 0);
     }
-    // Weighted vector area and total area per tangle.
-    let mut closure: Vec<(Vec3, f64)> = vec![(Vec3::zeros(), 0.0); patches.len()];
+    // Weighted vector area, total area and weighted volume per tangle.
+    let mut closure: Vec<(Vec3, f64, f64)> = vec![(Vec3::zeros(), 0.0, 0.0); patches.len()];
     for id in live_ids(cut) {
         let p = scratch.patch_of[id as usize] as usize;
         if patches[p].weight == 0 {
             continue;
         }
+        let w = f64::from(patches[p].weight);
         let a = volume::vector_area(mesh, cut, nodes, id);
         let t = &mut closure[tangle_of[p] as usize];
-        t.0 += a * f64::from(patches[p].weight);
+        t.0 += a * w;
         t.1 += a.norm();
+        t.2 += w * volume::signed_volume(mesh, cut, nodes, id);
     }
-    let open: Vec<bool> =
-        closure.iter().map(|(v, total)| check_closed && (v.norm() > 1e-9 * total || v.norm().is_nan())).collect();
+    let (lo, hi) = mesh
+        .positions()
+        .iter()
+        .fold((Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY)), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
+    let size = (hi - lo).norm();
     let mut n_open = 0;
-    for (t, &o) in open.iter().enumerate() {
-        if o && closure[t].1 > 0.0 {
-            n_open += 1;
-        }
-    }
+    let mut n_flat = 0;
+    // 0: keep, 1: open (skipped), 2: flat (weight 0, not skipped).
+    let verdict: Vec<u8> = closure
+        .iter()
+        .map(|&(v, total, vol)| {
+            if total == 0.0 {
+                0
+            } else if check_closed && (v.norm() > 1e-9 * total || v.norm().is_nan()) {
+                n_open += 1;
+                1
+            } else if vol.abs() <= FLAT_THICKNESS * size * total {
+                n_flat += 1;
+                2
+            } else {
+                0
+            }
+        })
+        .collect();
     for (p, patch) in patches.iter_mut().enumerate() {
-        if open[tangle_of[p] as usize] && patch.weight != 0 {
-            patch.weight = 0;
-            patch.skipped = true;
+        match verdict[tangle_of[p] as usize] {
+            1 if patch.weight != 0 => (patch.weight, patch.skipped) = (0, true),
+            2 => patch.weight = 0,
+            _ => {}
         }
     }
     for id in live_ids(cut) {
@@ -647,5 +679,5 @@ pub(crate) fn accumulate(
         volume::add_volume_gradient(mesh, cut, nodes, id, w, node_grad);
         volume::add_area_gradient(mesh, cut, nodes, id, 1.0, area_node_grad);
     }
-    n_open
+    (n_open, n_flat)
 }
