@@ -1,7 +1,8 @@
 //! Penetration volume + gradient with a reused workspace (BVH refit) as in training: the
 //! ≥ 10k-face garment-like benchmark mesh (sleeve pressed into a torso, holes closed by fans)
 //! and a simulated t-shirt frame (12,772 closed faces, 285 crossing pairs, 46 triple points),
-//! by winding numbers (default) and by SENC's smaller-side rule, in both gradient modes.
+//! by winding numbers (default) and by SENC's smaller-side rule, in both gradient modes; and
+//! the t-shirt frame with its neck left open (closed virtually inside the workspace).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use senc_geom::shapes::garment_benchmark;
@@ -34,6 +35,19 @@ fn bench(c: &mut Criterion) {
             b.iter(|| GiaWorkspace::new(&closure).penetration(&closure, &GiaOptions::default()).unwrap())
         });
     }
+    // The t-shirt with its neck (the highest boundary loop) left open: closed virtually.
+    let mesh = tshirt_frame();
+    let loops = mesh.topology().boundary_loops();
+    let mean_y = |l: &Vec<u32>| l.iter().map(|&v| mesh.positions()[v as usize].y).sum::<f64>() / l.len() as f64;
+    let neck = (0..loops.len()).max_by(|&a, &b| mean_y(&loops[a]).total_cmp(&mean_y(&loops[b]))).unwrap();
+    let closure = close_holes(&mesh, &HoleSelection::AllExcept(vec![neck])).unwrap();
+    let mut ws = GiaWorkspace::new(&closure);
+    c.bench_function("tshirt_0020_neck_open/Winding/Exact", |b| {
+        b.iter(|| ws.penetration(&closure, &GiaOptions::default()).unwrap())
+    });
+    c.bench_function("tshirt_0020_neck_open/first_call", |b| {
+        b.iter(|| GiaWorkspace::new(&closure).penetration(&closure, &GiaOptions::default()).unwrap())
+    });
 }
 
 criterion_group! { name = benches; config = Criterion::default().sample_size(20); targets = bench }

@@ -7,7 +7,7 @@
 //!
 //! With `SENC_ROBUSTNESS_DUMP=DIR` it also writes the closed mesh of every case with a
 //! negative volume or a dropped negative sum, of the first 300 cases whose winding probes
-//! disagreed, and of every 500th case to `DIR/case_NNNNNN.obj`, and one JSON line per
+//! disagreed and of the first 300 with flat tangles, and of every 500th case to `DIR/case_NNNNNN.obj`, and one JSON line per
 //! written case to `DIR/cases.jsonl` (our volume and diagnostics), for comparison with the
 //! oracle (`reports/gia/robustness_oracle.py DIR`).
 
@@ -29,6 +29,7 @@ fn main() {
         std::fs::File::create(d.join("cases.jsonl")).unwrap()
     });
     let (mut unclosed, mut negative_sums, mut disagreements, mut n_disputed) = (0, 0, 0, 0);
+    let (mut with_flat, mut n_flat_dumped) = (0, 0);
     let start = std::time::Instant::now();
     for case in 0..n {
         let base = &bases[case % 2];
@@ -60,7 +61,9 @@ fn main() {
         if let (Some(dir), Some(log), Ok(Some((p, closure)))) = (&dump, &mut log, &run) {
             let disputed = p.diagnostics.winding_ray_disagreements > 0 && n_disputed < 300;
             n_disputed += usize::from(disputed);
-            if p.volume < -1e-12 || case % 500 == 0 || disputed || p.diagnostics.negative_sums > 0 {
+            let flat = p.diagnostics.flat_tangles > 0 && n_flat_dumped < 300;
+            n_flat_dumped += usize::from(flat);
+            if p.volume < -1e-12 || case % 500 == 0 || disputed || flat || p.diagnostics.negative_sums > 0 {
                 let m = closure.mesh();
                 senc_geom::obj::write_obj(dir.join(format!("case_{case:06}.obj")), m.positions(), m.faces()).unwrap();
                 let d = serde_json::to_string(&p.diagnostics).unwrap();
@@ -87,6 +90,7 @@ fn main() {
                 unclosed += usize::from(p.diagnostics.unclosed_tangles > 0);
                 negative_sums += p.diagnostics.negative_sums;
                 disagreements += usize::from(p.diagnostics.winding_ray_disagreements > 0);
+                with_flat += usize::from(p.diagnostics.flat_tangles > 0);
                 if p.diagnostics.triple_points > 0 {
                     triple += 1;
                 }
@@ -94,7 +98,7 @@ fn main() {
         }
     }
     println!(
-        "{{\"cases\":{n},\"panics\":{panics},\"nan\":{nan},\"negative\":{negative},\"with_volume\":{positive},\"with_skipped_patches\":{with_skips},\"with_triple_points\":{triple},\"with_unclosed_tangles\":{unclosed},\"negative_sums_dropped\":{negative_sums},\"with_ray_disagreements\":{disagreements},\"seconds\":{:.1}}}",
+        "{{\"cases\":{n},\"panics\":{panics},\"nan\":{nan},\"negative\":{negative},\"with_volume\":{positive},\"with_skipped_patches\":{with_skips},\"with_triple_points\":{triple},\"with_unclosed_tangles\":{unclosed},\"negative_sums_dropped\":{negative_sums},\"with_ray_disagreements\":{disagreements},\"with_flat_tangles\":{with_flat},\"seconds\":{:.1}}}",
         start.elapsed().as_secs_f64()
     );
 }

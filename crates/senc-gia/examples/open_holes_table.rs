@@ -1,0 +1,40 @@
+//! The committed garment frames with each hole left open in turn (closed virtually inside
+//! the workspace), against every hole fanned: one markdown row per frame and hole.
+//! `cargo run --release -p senc-gia --example open_holes_table`.
+
+use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
+use senc_gia::{GiaOptions, GiaWorkspace};
+
+fn frame(garment: &str, frame: u64) -> TriMesh {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/fixtures/garment_frames");
+    let faces: Vec<[u32; 3]> =
+        rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_faces.msgpack")).unwrap()).unwrap();
+    let pos: Vec<[f64; 3]> =
+        rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_{frame:04}.msgpack")).unwrap()).unwrap();
+    TriMesh::new(pos.into_iter().map(Vec3::from).collect(), faces).unwrap()
+}
+
+fn main() {
+    println!("| frame | hole left open (loop, mean height m, vertices) | volume (m³) | all fanned (m³) | virtual-fan pairs | patches (skipped) |");
+    println!("| --- | --- | --- | --- | --- | --- |");
+    for (garment, f) in [("tshirt", 20), ("tshirt", 60), ("tshirt", 90), ("skirt", 20), ("skirt", 50), ("skirt", 90)] {
+        let mesh = frame(garment, f);
+        let all = close_holes(&mesh, &HoleSelection::All).unwrap();
+        let closed = GiaWorkspace::new(&all).penetration(&all, &GiaOptions::default()).unwrap();
+        for (k, lp) in mesh.topology().boundary_loops().iter().enumerate() {
+            let y = lp.iter().map(|&v| mesh.positions()[v as usize].y).sum::<f64>() / lp.len() as f64;
+            let c = close_holes(&mesh, &HoleSelection::AllExcept(vec![k])).unwrap();
+            let p = GiaWorkspace::new(&c).penetration(&c, &GiaOptions::default()).unwrap();
+            let d = &p.diagnostics;
+            println!(
+                "| {garment} {f} | {k} ({y:.3}, {}) | {:.9e} | {:.9e} | {} | {} ({}) |",
+                lp.len(),
+                p.volume,
+                closed.volume,
+                d.virtual_fan_pairs,
+                d.patches,
+                d.patches_skipped
+            );
+        }
+    }
+}
