@@ -1,5 +1,6 @@
 //! Where the time of one penetration query goes, phase by phase, on the garment benchmark
-//! mesh: `cargo run --release -p senc-gia --example profile_gia`.
+//! mesh: `cargo run --release -p senc-gia --example profile_gia` (`SENC_PROFILE_FRAME=tshirt_0020`
+//! for a committed garment frame instead, all holes fanned).
 //!
 //! `profile_gia detect N` (or `analyse N`, `total N`) runs only that phase N times and
 //! prints nothing else, for CPU-time measurements with `perf stat -e task-clock` on a busy
@@ -14,7 +15,19 @@ use senc_geom::{close_holes, HoleSelection};
 use senc_gia::{GiaOptions, GiaWorkspace};
 
 fn main() {
-    let closure = close_holes(&garment_benchmark().unwrap(), &HoleSelection::All).unwrap();
+    let mesh = match std::env::var("SENC_PROFILE_FRAME") {
+        Ok(name) => {
+            let (garment, frame) = name.split_once('_').expect("GARMENT_NNNN");
+            let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/fixtures/garment_frames");
+            let faces: Vec<[u32; 3]> =
+                rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_faces.msgpack")).unwrap()).unwrap();
+            let pos: Vec<[f64; 3]> =
+                rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_{frame}.msgpack")).unwrap()).unwrap();
+            senc_geom::TriMesh::new(pos.into_iter().map(senc_geom::Vec3::from).collect(), faces).unwrap()
+        }
+        Err(_) => garment_benchmark().unwrap(),
+    };
+    let closure = close_holes(&mesh, &HoleSelection::All).unwrap();
     let mesh = closure.mesh();
     let args: Vec<String> = std::env::args().collect();
     if args.len() == 3 {
@@ -39,6 +52,19 @@ fn main() {
         return;
     }
     let reps = 20;
+    // The first call's parts: the intersector's build (BVH, rings, disk patches), its first
+    // search, and a fresh workspace's whole first query.
+    let t = Instant::now();
+    for _ in 0..reps {
+        std::hint::black_box(SelfIntersector::new(mesh));
+    }
+    let build = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
+    let t = Instant::now();
+    for _ in 0..reps {
+        std::hint::black_box(GiaWorkspace::new(&closure).penetration(&closure, &GiaOptions::default()).unwrap());
+    }
+    let first = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
+    println!("first call {first:.2} ms, of which SelfIntersector::new {build:.2} ms");
     let mut ix = SelfIntersector::new(mesh).with_groups(closure.fan_groups());
     let inter = ix.find(mesh);
     let t = Instant::now();
