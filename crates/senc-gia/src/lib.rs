@@ -6,7 +6,7 @@
 //! cuts the faces along every intersection segment at once (`senc_geom::cut`) and measures
 //! the volume of space that the surface covers twice or more, or inside out (winding number
 //! `w ≥ 2` or `w ≤ −1`). By default ([`VolumeRule::Winding`], module [`winding`]) each patch
-//! of the cut surface is classified by one exact ray query and the volume is a weighted sum
+//! of the cut surface is classified by exact ray queries and the volume is a weighted sum
 //! of the tetrahedra the patches span with the origin: exact on any tangle, with no flood
 //! fill and no tie rule. SENC's rule ([`VolumeRule::SmallerSide`]: flood-fill both sides of
 //! each contour and keep the one that finishes first) stays available for ablation.
@@ -169,8 +169,9 @@ pub struct Diagnostics {
     pub patches_skipped: usize,
     /// Segment sides where that check failed.
     pub inconsistent_walls: usize,
-    /// Ray queries made (one per group of patches linked by intersection segments, more
-    /// where a probe's origin lay exactly on another face).
+    /// Ray queries made (two per group of patches linked by intersection segments, which
+    /// must agree; one where a group has a single probe; more where a probe's origin lay
+    /// exactly on another face).
     pub winding_rays: usize,
     /// Groups of patches whose every probe origin lay exactly on another face, or whose
     /// probes gave no two agreeing winding numbers: their patches are skipped.

@@ -356,7 +356,7 @@ pub(crate) fn classify(
             *best = (area, id);
         }
     }
-    // Groups of patches linked by walls: one ray each, then propagation.
+    // Groups of patches linked by walls: relative windings by propagation, then two rays.
     let mut adj: Vec<Vec<(u32, i64)>> = vec![Vec::new(); n_patches];
     for &(a, b, d) in &walls {
         if a != b && b != u32::MAX && d != 0 {
