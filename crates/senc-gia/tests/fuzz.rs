@@ -66,8 +66,8 @@ fn ten_thousand_random_meshes_never_panic_or_give_nan() {
         assert!(p.volume >= -1e-12, "case {case}: volume {} {:?} {:?}", p.volume, options, p.diagnostics);
         if options.rule == VolumeRule::Winding {
             // The volume is a function of the geometry: both gradient modes measure the same
-            // one (fixed-weight node positions once put zero-area faces' cuts elsewhere and
-            // gave negative volumes on grid-snapped meshes).
+            // one (fixed-weight node positions would put the cuts of zero-area faces
+            // elsewhere, and give negative volumes on grid-snapped meshes).
             let other = GradientMode::Exact;
             let q =
                 GiaWorkspace::new(&closure).penetration(&closure, &GiaOptions { gradient: other, ..options }).unwrap();
