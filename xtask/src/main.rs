@@ -23,6 +23,8 @@
 //!   sequence, one animated `sequence.glb` and preview PNGs.
 //! - `against-solver --checkpoint DIR --motion NAME [--solver N]`: the network rolled out
 //!   alone against the reference solver on the same motion (the resting case on a held pose).
+//! - `stress --checkpoint DIR [--motion NAME] [--frames N]`: the network alone on stiff and
+//!   extreme cases (μ and k_b ×100, 3× faster motion, 50 m/s² wind, a start inside the body).
 //!
 //! `cargo xtask` with no arguments lists every command.
 
@@ -42,6 +44,7 @@ mod fit;
 mod glb;
 mod preview;
 mod simulate;
+mod stress;
 mod train;
 mod volume;
 
@@ -164,6 +167,9 @@ enum Command {
     /// A network rolled out alone against the reference solver on the same motion (the
     /// resting-case check on a held pose).
     AgainstSolver(against_solver::Args),
+    /// A network alone on the stiff and extreme cases (μ and k_b ×100, 3× faster motion,
+    /// 50 m/s² wind, a start 2 cm towards the body): energy, drift, finiteness.
+    Stress(stress::Args),
     /// Draw the body and the garment at a frame of a scene motion (PNG).
     Preview(preview::Args),
 }
@@ -230,6 +236,7 @@ fn main() -> std::process::ExitCode {
         Some(Command::Bench(args)) => bench::run(args),
         Some(Command::Probe(args)) => eval::probe(args),
         Some(Command::AgainstSolver(args)) => against_solver::run(&args),
+        Some(Command::Stress(args)) => stress::run(&args),
         Some(Command::Preview(args)) => preview::run(args),
     };
     match result {

@@ -214,6 +214,20 @@ impl EnergyModel {
         self.body.as_ref().map_or(0, |b| b.query_count())
     }
 
+    /// The gradient of the elastic energy alone (stretching and bending) at `x`, J/m per
+    /// vertex: minus the cloth's internal forces. Pinned vertices are not special here.
+    pub fn elastic_gradient(&self, x: &[Vec3]) -> Result<Vec<Vec3>, EnergyError> {
+        if x.len() != self.n_vertices() {
+            return Err(EnergyError::VertexCount { what: "positions", expected: self.n_vertices(), got: x.len() });
+        }
+        let mut grad = vec![Vec3::zeros(); x.len()];
+        self.stretching.eval(x, Some(&mut grad));
+        if let Some(b) = &self.bending {
+            b.eval(x, Some(&mut grad));
+        }
+        Ok(grad)
+    }
+
     /// Whether a body was given.
     pub fn has_body(&self) -> bool {
         self.body.is_some()

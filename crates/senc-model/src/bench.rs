@@ -233,7 +233,7 @@ pub fn export_graph(graph: &GraphInputs, stem: &Path) -> std::io::Result<()> {
         "{{\"n_cloth\": {}, \"n_body\": {}, \"node_features\": {}, \"edge_features\": {}, \"edges\": {{",
         graph.n_cloth,
         graph.n_body,
-        crate::graph::NODE_FEATURES,
+        graph.nodes.len() / graph.n_nodes().max(1),
         crate::graph::EDGE_FEATURES
     );
     for (k, t) in EdgeType::ALL.iter().enumerate() {

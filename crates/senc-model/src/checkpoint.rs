@@ -62,9 +62,9 @@ impl Model {
                 format!("layout version {} but this build reads version {META_VERSION}", meta.version),
             ));
         }
-        meta.normalizers.validate(meta.config.coarse_levels)?;
+        meta.normalizers.validate(meta.config.coarse_levels, meta.graph.node_features())?;
         let weights = dir.join(WEIGHTS_FILE);
-        let network = crate::model::init_network(&meta.config, None, device)
+        let network = crate::model::init_network(&meta.config, meta.graph.node_features(), None, device)
             .try_load_file(&weights)
             .map_err(|e| err(&weights, format!("{e:?}")))?;
         Ok(Model {

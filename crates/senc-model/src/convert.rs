@@ -6,7 +6,7 @@
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use senc_geom::Vec3;
 
-use crate::graph::{EdgeType, GraphInputs, EDGE_FEATURES, NODE_FEATURES};
+use crate::graph::{EdgeType, GraphInputs, EDGE_FEATURES};
 use crate::normalizer::Normalizers;
 use crate::ModelError;
 
@@ -28,7 +28,7 @@ pub struct GraphTensors {
     pub n_cloth: usize,
     /// Total node count.
     pub n_nodes: usize,
-    /// Normalised node features, `[n_nodes, NODE_FEATURES]`.
+    /// Normalised node features, `[n_nodes, node features]`.
     pub nodes: Tensor<2>,
     /// Edge sets by [`EdgeType::index`]; `None` where the graph has no edge of that type.
     pub edges: Vec<Option<EdgeTensors>>,
@@ -43,7 +43,8 @@ impl GraphTensors {
 
     /// Uploads a graph already normalised and cast on the host.
     pub fn upload(host: &HostGraph, device: &Device) -> Self {
-        let nodes = Tensor::from_data(TensorData::new(host.nodes.clone(), [host.n_nodes, NODE_FEATURES]), device);
+        let width = host.nodes.len() / host.n_nodes.max(1);
+        let nodes = Tensor::from_data(TensorData::new(host.nodes.clone(), [host.n_nodes, width]), device);
         let edges = host
             .edges
             .iter()
@@ -82,7 +83,7 @@ pub struct HostGraph {
     pub n_cloth: usize,
     /// Total node count.
     pub n_nodes: usize,
-    /// Normalised node features, row-major `[n_nodes, NODE_FEATURES]`.
+    /// Normalised node features, row-major `[n_nodes, node features]`.
     pub nodes: Vec<f32>,
     /// Edge sets by [`EdgeType::index`], one per normaliser in `norm`; `None` where the graph
     /// has no edge of that type.

@@ -60,6 +60,10 @@ pub enum ModelError {
         /// Rows expected.
         expected: usize,
     },
+    /// The garment's elastic model (the elastic-acceleration node features) could not be
+    /// built or evaluated.
+    #[error("elastic forces of the garment: {0}")]
+    Elastic(#[from] senc_energy::EnergyError),
     /// A tensor read back as points does not have 3 columns.
     #[error("tensor has {columns} columns; points need exactly 3")]
     NotPoints {

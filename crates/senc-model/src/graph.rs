@@ -3,7 +3,8 @@
 //!
 //! # Nodes
 //! Cloth vertices come first (`0..n_cloth`), body vertices after them
-//! (`n_cloth..n_cloth + n_body`). Node features, [`NODE_FEATURES`] = 15 columns:
+//! (`n_cloth..n_cloth + n_body`). Node features, [`NODE_FEATURES`] = 15 columns, and
+//! [`ELASTIC_FEATURES`] more with [`GraphConfig::elastic_features`]:
 //!
 //! | columns | meaning | unit |
 //! |---|---|---|
@@ -15,6 +16,7 @@
 //! | 10 | `ln k_b` (bending stiffness); 0 for body | – |
 //! | 11 | `ln m_i`, `m_i = Σ_{f∋i} ρ A_f / 3` (rest areas, ρ in kg/m²); 0 for body | ln kg |
 //! | 12..15 | gravity + external acceleration `g + a_ext`, the same on every node | m/s² |
+//! | 15..18 | only with [`GraphConfig::elastic_features`]: elastic acceleration `−∇(E_stretch + E_bend)(x[t]) / m_i` (the internal force of the cloth per unit mass: whether a vertex is held up by its neighbours); 0 for body | m/s² |
 //!
 //! # Edges
 //! Every edge is directed `sender → receiver` and carries [`EDGE_FEATURES`] = 8 columns; every
@@ -44,6 +46,8 @@ use crate::ModelError;
 
 /// Number of node feature columns (see the module docs).
 pub const NODE_FEATURES: usize = 15;
+/// Node feature columns added by [`GraphConfig::elastic_features`].
+pub const ELASTIC_FEATURES: usize = 3;
 /// Number of edge feature columns, the same for every edge type.
 pub const EDGE_FEATURES: usize = 8;
 /// Number of edge types of every graph (mesh, body, self); coarse levels add one each.
@@ -124,33 +128,34 @@ pub struct GraphConfig {
     /// sets it from its [`crate::ModelConfig`].
     #[serde(default)]
     pub coarse_levels: usize,
+    /// Whether the nodes carry the cloth's elastic acceleration (module docs, columns
+    /// 15..18). Absent from older checkpoints, which read as false.
+    #[serde(default)]
+    pub elastic_features: bool,
+}
+
+impl GraphConfig {
+    /// Node feature columns of graphs built with this config.
+    pub fn node_features(&self) -> usize {
+        NODE_FEATURES + if self.elastic_features { ELASTIC_FEATURES } else { 0 }
+    }
 }
 
 impl Default for GraphConfig {
     fn default() -> Self {
-        Self { self_radius: 0.02, body_radius: 0.03, self_edges: SelfEdges::ExcludeMesh, coarse_levels: 0 }
+        Self {
+            self_radius: 0.02,
+            body_radius: 0.03,
+            self_edges: SelfEdges::ExcludeMesh,
+            coarse_levels: 0,
+            elastic_features: false,
+        }
     }
 }
 
-/// Material parameters of one garment (HOOD's parametrisation).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Material {
-    /// Lamé μ (stretching), > 0.
-    pub mu: f64,
-    /// Lamé λ (stretching), > 0.
-    pub lambda: f64,
-    /// Bending stiffness k_b, > 0.
-    pub bending: f64,
-    /// Area density ρ, kg/m², > 0.
-    pub density: f64,
-}
-
-impl Default for Material {
-    /// HOOD's defaults: μ = 23600, λ = 44400, k_b = 3.9626e-5, ρ = 0.20022 kg/m².
-    fn default() -> Self {
-        Self { mu: 23600.0, lambda: 44400.0, bending: 3.9626e-5, density: 0.20022 }
-    }
-}
+/// The garment material (senc-energy's: Lamé parameters, thickness, bending stiffness,
+/// density; HOOD's defaults).
+pub use senc_energy::Material;
 
 /// The body (obstacle) of one frame: its triangles and its vertices now and next frame.
 #[derive(Debug, Clone, Copy)]
@@ -255,7 +260,7 @@ impl GraphInputs {
         let n_body = frame.body.map_or(0, |b| b.curr.len());
 
         let t0 = Instant::now();
-        let nodes = node_features(frame);
+        let nodes = node_features(frame, config.elastic_features)?;
         timings.nodes = t0.elapsed().as_secs_f64();
 
         let t0 = Instant::now();
@@ -424,7 +429,13 @@ fn validate(frame: &FrameState<'_>) -> Result<(), ModelError> {
         return Err(ModelError::BadMaterial { what: "time step dt", value: frame.dt });
     }
     let m = frame.material;
-    for (what, value) in [("mu", m.mu), ("lambda", m.lambda), ("bending", m.bending), ("density", m.density)] {
+    for (what, value) in [
+        ("mu", m.mu),
+        ("lambda", m.lambda),
+        ("thickness", m.thickness),
+        ("bending", m.bending_stiffness),
+        ("density", m.density),
+    ] {
         if !(value.is_finite() && value > 0.0) {
             return Err(ModelError::BadMaterial { what, value });
         }
@@ -444,6 +455,48 @@ fn validate(frame: &FrameState<'_>) -> Result<(), ModelError> {
     }
     Ok(())
 }
+
+/// The elastic model (stretching and bending of senc-energy) of one rest mesh and material,
+/// cached per thread: a rollout or a training run builds graphs of the same few garments
+/// and materials over and over. Keyed by the rest mesh's address and sizes and the
+/// material's bits; at most [`ELASTIC_CACHE`] entries.
+fn elastic_accelerations(frame: &FrameState<'_>, masses: &[f64]) -> Result<Vec<Vec3>, ModelError> {
+    use std::cell::RefCell;
+    use std::sync::Arc;
+    type Key = (usize, usize, usize, [u64; 5]);
+    thread_local! {
+        static CACHE: RefCell<Vec<(Key, Arc<senc_energy::EnergyModel>)>> = const { RefCell::new(Vec::new()) };
+    }
+    let m = frame.material;
+    let key: Key = (
+        frame.rest as *const TriMesh as usize,
+        frame.rest.n_vertices(),
+        frame.rest.n_faces(),
+        [m.mu, m.lambda, m.thickness, m.bending_stiffness, m.density].map(f64::to_bits),
+    );
+    let model = CACHE.with(|c| {
+        let mut c = c.borrow_mut();
+        if let Some(pos) = c.iter().position(|(k, _)| *k == key) {
+            let entry = c.remove(pos);
+            let model = Arc::clone(&entry.1);
+            c.push(entry);
+            return Ok::<_, ModelError>(model);
+        }
+        let mut config = senc_energy::EnergyConfig { material: m, ..Default::default() };
+        config.self_collision.weight = 0.0;
+        let model = Arc::new(senc_energy::EnergyModel::new(frame.rest, &config, None)?);
+        if c.len() >= ELASTIC_CACHE {
+            c.remove(0);
+        }
+        c.push((key, Arc::clone(&model)));
+        Ok(model)
+    })?;
+    let grad = model.elastic_gradient(frame.curr)?;
+    Ok(grad.iter().zip(masses).map(|(g, &mi)| if mi > 0.0 { -g / mi } else { Vec3::zeros() }).collect())
+}
+
+/// Most elastic models [`elastic_accelerations`] keeps per thread.
+const ELASTIC_CACHE: usize = 8;
 
 /// Unit area-weighted vertex normals; zero for a vertex whose faces are all degenerate.
 pub fn vertex_normals(positions: &[Vec3], faces: &[[u32; 3]]) -> Vec<Vec3> {
@@ -474,14 +527,15 @@ pub fn vertex_masses(rest: &TriMesh, density: f64) -> Vec<f64> {
     m
 }
 
-fn node_features(frame: &FrameState<'_>) -> Vec<f64> {
+fn node_features(frame: &FrameState<'_>, elastic: bool) -> Result<Vec<f64>, ModelError> {
     let n_cloth = frame.rest.n_vertices();
     let n_body = frame.body.map_or(0, |b| b.curr.len());
-    let mut out = Vec::with_capacity((n_cloth + n_body) * NODE_FEATURES);
+    let mut out = Vec::with_capacity((n_cloth + n_body) * (NODE_FEATURES + ELASTIC_FEATURES));
     let normals = vertex_normals(frame.curr, frame.rest.faces());
     let masses = vertex_masses(frame.rest, frame.material.density);
     let m = frame.material;
     let g = frame.accel;
+    let elastic_acc = if elastic { elastic_accelerations(frame, &masses)? } else { Vec::new() };
     for i in 0..n_cloth {
         let kinematic = frame.pinned.binary_search(&i).is_ok();
         let v = frame.curr[i] - frame.prev[i];
@@ -499,12 +553,15 @@ fn node_features(frame: &FrameState<'_>) -> Vec<f64> {
             n.z,
             m.mu.ln(),
             m.lambda,
-            m.bending.ln(),
+            m.bending_stiffness.ln(),
             log_m,
             g.x,
             g.y,
             g.z,
         ]);
+        if let Some(e) = elastic_acc.get(i) {
+            out.extend_from_slice(&[e.x, e.y, e.z]);
+        }
     }
     if let Some(body) = frame.body {
         let normals = vertex_normals(body.next, body.faces);
@@ -512,7 +569,10 @@ fn node_features(frame: &FrameState<'_>) -> Vec<f64> {
             let v = body.next[j] - body.curr[j];
             let n = normals[j];
             out.extend_from_slice(&[v.x, v.y, v.z, 0.0, 1.0, n.x, n.y, n.z, 0.0, 0.0, 0.0, 0.0, g.x, g.y, g.z]);
+            if elastic {
+                out.extend_from_slice(&[0.0; ELASTIC_FEATURES]);
+            }
         }
     }
-    out
+    Ok(out)
 }

@@ -35,13 +35,13 @@ pub struct Model {
 /// use), so the draws are forced here, inside one process-wide lock: otherwise a model
 /// initialised or loaded on another thread (a load draws initial weights too, then
 /// overwrites them) shifts the numbers this seed gives (seen as flaky resume tests).
-pub(crate) fn init_network(config: &ModelConfig, seed: Option<u64>, device: &Device) -> Network {
+pub(crate) fn init_network(config: &ModelConfig, node_features: usize, seed: Option<u64>, device: &Device) -> Network {
     static INIT: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let _guard = INIT.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     if let Some(seed) = seed {
         device.seed(seed);
     }
-    let network = config.init(device);
+    let network = config.init(node_features, device);
     network.visit(&mut ForceInit);
     network
 }
@@ -62,9 +62,9 @@ impl Model {
     /// trainers in one process) each get exactly the weights of their seed.
     /// `graph.coarse_levels` is overwritten by `config.coarse_levels`.
     pub fn new(config: ModelConfig, mut graph: GraphConfig, seed: u64, device: &Device) -> Self {
-        let network = init_network(&config, Some(seed), device);
         graph.coarse_levels = config.coarse_levels.min(crate::graph::MAX_COARSE_LEVELS);
-        let normalizers = Normalizers::new(graph.coarse_levels);
+        let network = init_network(&config, graph.node_features(), Some(seed), device);
+        let normalizers = Normalizers::new(graph.coarse_levels, graph.node_features());
         Self { network, config, graph, normalizers, device: device.clone() }
     }
 

@@ -15,7 +15,7 @@ use burn::tensor::module::linear;
 use burn::tensor::{Device, IndexingUpdateOp, Tensor};
 
 use crate::convert::GraphTensors;
-use crate::graph::{EDGE_FEATURES, MAX_COARSE_LEVELS, NODE_FEATURES, N_EDGE_TYPES};
+use crate::graph::{EDGE_FEATURES, MAX_COARSE_LEVELS, N_EDGE_TYPES};
 
 /// Sizes of the network. Saved with every checkpoint.
 #[derive(Config, Debug, PartialEq)]
@@ -76,13 +76,14 @@ impl ModelConfig {
         levels
     }
 
-    /// Builds a freshly initialised network on `device` (burn's default initialisers; seed
-    /// the device first with `device.seed(..)` for reproducible weights).
-    pub fn init(&self, device: &Device) -> Network {
+    /// Builds a freshly initialised network for graphs of `node_features` node columns
+    /// ([`crate::GraphConfig::node_features`]) on `device` (burn's default initialisers;
+    /// seed the device first with `device.seed(..)` for reproducible weights).
+    pub fn init(&self, node_features: usize, device: &Device) -> Network {
         let l = self.latent.max(1);
         let n_types = N_EDGE_TYPES + self.coarse_levels.min(MAX_COARSE_LEVELS);
         Network {
-            node_encoder: Mlp::new(&[NODE_FEATURES], l, l, self, self.layer_norm, device),
+            node_encoder: Mlp::new(&[node_features], l, l, self, self.layer_norm, device),
             edge_encoders: (0..n_types)
                 .map(|_| Mlp::new(&[EDGE_FEATURES], l, l, self, self.layer_norm, device))
                 .collect(),

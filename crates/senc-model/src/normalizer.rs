@@ -108,7 +108,7 @@ impl RunningStats {
 /// acceleration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Normalizers {
-    /// Node features, [`NODE_FEATURES`] columns.
+    /// Node features, [`NODE_FEATURES`] columns (more with elastic features).
     pub node: RunningStats,
     /// Edge features per [`EdgeType::index`] (mesh, body, self, coarse levels),
     /// [`EDGE_FEATURES`] columns each.
@@ -123,15 +123,16 @@ pub struct Normalizers {
 impl Default for Normalizers {
     /// Identity normalisers for a model without coarse levels.
     fn default() -> Self {
-        Self::new(0)
+        Self::new(0, NODE_FEATURES)
     }
 }
 
 impl Normalizers {
-    /// Identity normalisers for a model with `coarse_levels` coarse levels.
-    pub fn new(coarse_levels: usize) -> Self {
+    /// Identity normalisers for a model with `coarse_levels` coarse levels and
+    /// `node_features` node feature columns.
+    pub fn new(coarse_levels: usize, node_features: usize) -> Self {
         Self {
-            node: RunningStats::new(NODE_FEATURES),
+            node: RunningStats::new(node_features),
             edges: (0..N_EDGE_TYPES + coarse_levels).map(|_| RunningStats::new(EDGE_FEATURES)).collect(),
             output: RunningStats::new(3),
         }
@@ -146,8 +147,8 @@ impl Normalizers {
     }
 
     /// Checks every width and the number of edge normalisers (after loading a checkpoint).
-    pub fn validate(&self, coarse_levels: usize) -> Result<(), ModelError> {
-        self.node.check("node".into(), NODE_FEATURES)?;
+    pub fn validate(&self, coarse_levels: usize, node_features: usize) -> Result<(), ModelError> {
+        self.node.check("node".into(), node_features)?;
         if self.edges.len() != N_EDGE_TYPES + coarse_levels {
             return Err(ModelError::NormalizerWidth {
                 what: "edge normaliser count".into(),

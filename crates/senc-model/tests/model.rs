@@ -498,3 +498,48 @@ fn pinned_cloth_vertices_are_kinematic_nodes() {
         assert_eq!(ty, want, "vertex {i}");
     }
 }
+
+/// With `elastic_features` every node row has three more columns: the cloth's elastic
+/// acceleration `−∇(E_stretch + E_bend)/m` at `x[t]` (zero on body nodes). It is zero for
+/// the flat rest state, points back towards the rest length for a sheet stretched along x,
+/// sums to zero over the garment (internal forces), and the model runs on it.
+#[test]
+fn elastic_features_are_the_internal_forces_per_unit_mass() {
+    use senc_model::graph::{ELASTIC_FEATURES, NODE_FEATURES};
+    let mut s = SyntheticScene::new(6, 0.02, 40, 5);
+    let config = GraphConfig { elastic_features: true, ..GraphConfig::default() };
+    let width = NODE_FEATURES + ELASTIC_FEATURES;
+    assert_eq!(config.node_features(), width);
+    let col = |g: &GraphInputs, i: usize| {
+        let r = &g.nodes[i * width + NODE_FEATURES..(i + 1) * width];
+        senc_geom::Vec3::new(r[0], r[1], r[2])
+    };
+    // At rest: no internal force.
+    s.curr = s.rest.positions().to_vec();
+    s.prev = s.curr.clone();
+    let g = GraphInputs::build(&s.frame(), &config).unwrap();
+    assert_eq!(g.nodes.len(), (g.n_cloth + g.n_body) * width);
+    assert!((0..g.n_cloth).all(|i| col(&g, i).norm() < 1e-9));
+    // Stretched 10 % along x: the two x-edges of the sheet are pulled inwards.
+    s.curr = s.rest.positions().iter().map(|p| senc_geom::Vec3::new(1.1 * p.x, p.y, p.z)).collect();
+    let g = GraphInputs::build(&s.frame(), &config).unwrap();
+    let xs: Vec<f64> = s.curr.iter().map(|p| p.x).collect();
+    let (lo, hi) = (xs.iter().copied().fold(f64::MAX, f64::min), xs.iter().copied().fold(f64::MIN, f64::max));
+    for i in 0..g.n_cloth {
+        let a = col(&g, i);
+        if (xs[i] - hi).abs() < 1e-12 {
+            assert!(a.x < 0.0, "right edge vertex {i}: {a:?}");
+        }
+        if (xs[i] - lo).abs() < 1e-12 {
+            assert!(a.x > 0.0, "left edge vertex {i}: {a:?}");
+        }
+    }
+    let masses = senc_model::graph::vertex_masses(&s.rest, s.material.density);
+    let net: senc_geom::Vec3 = (0..g.n_cloth).map(|i| col(&g, i) * masses[i]).sum();
+    let scale: f64 = (0..g.n_cloth).map(|i| (col(&g, i) * masses[i]).norm()).sum();
+    assert!(net.norm() < 1e-9 * scale, "net internal force {net:?} of {scale}");
+    assert!((g.n_cloth..g.n_cloth + g.n_body).all(|i| col(&g, i) == senc_geom::Vec3::zeros()));
+    let model = Model::new(small_config(), config, 3, &Device::flex());
+    assert_eq!(model.graph.node_features(), width);
+    assert_eq!(model.step(&s.frame()).unwrap().len(), s.curr.len());
+}

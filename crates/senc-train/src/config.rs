@@ -209,6 +209,10 @@ pub struct ModelSection {
     /// Start the decoder's last layer at zero, so the untrained network takes a smooth
     /// free-flight step (HOOD: no, random). Default true.
     pub zero_init_output: bool,
+    /// Give the nodes the cloth's elastic acceleration at `x[t]` (stretching and bending
+    /// force per unit mass): whether a vertex is held up by its neighbours, which the edge
+    /// lengths show only as tiny strains. HOOD: no. Default true.
+    pub elastic_features: bool,
 }
 
 impl Default for ModelSection {
@@ -223,6 +227,7 @@ impl Default for ModelSection {
             self_radius: 0.02,
             body_radius: 0.03,
             zero_init_output: true,
+            elastic_features: true,
         }
     }
 }
@@ -249,6 +254,7 @@ impl ModelSection {
                 SelfEdgeMode::KeepMesh => SelfEdges::KeepMesh,
             },
             coarse_levels: self.coarse_levels,
+            elastic_features: self.elastic_features,
         }
     }
 }

@@ -46,6 +46,14 @@ pub enum TrainError {
     /// Penetration volume failed.
     #[error(transparent)]
     Gia(#[from] senc_gia::GiaError),
+    /// A rollout turned non-finite; `partial` holds the frames before it.
+    #[error("the rollout diverged (non-finite positions) at frame {frame}")]
+    Diverged {
+        /// The first non-finite frame.
+        frame: usize,
+        /// The rollout up to the frame before.
+        partial: Box<crate::rollout::Rollout>,
+    },
     /// A request that cannot be served (empty motion list, motion too short, ...).
     #[error("{0}")]
     Invalid(String),

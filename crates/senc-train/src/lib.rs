@@ -15,9 +15,11 @@ pub mod config;
 pub mod error;
 pub mod eval;
 pub mod garment;
+pub mod metrics;
 pub mod resting;
 pub mod rollout;
 pub mod signal;
+pub mod stress;
 pub mod trainer;
 
 pub use config::{EvalConfig, ModelSection, RunConfig, SelfEdgeMode, TrainConfig};

@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use crate::error::TrainError;
 use crate::garment::Garment;
+use crate::metrics::{mean_distance, mean_rise};
 use crate::rollout::{network_rollout, solver_rollout, Rollout};
 
 /// How far a network's rollout is from the reference solver's on the same motion.
@@ -38,14 +39,6 @@ pub struct SolverComparison {
 
 /// Frames over which [`SolverComparison::final_speed_cm`] is averaged.
 pub const STILL_FRAMES: usize = 10;
-
-fn mean_distance(a: &[Vec3], b: &[Vec3]) -> f64 {
-    a.iter().zip(b).map(|(p, q)| (p - q).norm()).sum::<f64>() / a.len().max(1) as f64
-}
-
-fn mean_rise(a: &[Vec3], b: &[Vec3]) -> f64 {
-    a.iter().zip(b).map(|(p, q)| p.y - q.y).sum::<f64>() / a.len().max(1) as f64
-}
 
 fn final_speed(r: &Rollout) -> f64 {
     let n = r.cloth.len();

@@ -10,7 +10,6 @@ use senc_scene::Motion;
 
 use crate::error::TrainError;
 use crate::garment::Garment;
-use crate::trainer::model_material;
 
 /// A simulated sequence.
 #[derive(Debug, Clone)]
@@ -41,18 +40,27 @@ pub(crate) struct StepInput<'a> {
 }
 
 /// The rollout loop shared by the network and the solver, as in training: the garment
-/// starts skinned at frame 0 with zero velocity, the first step is `[scene] first_step_dt`
+/// starts at `x0` (the skinned garment at frame 0, unless a caller moves it) with zero
+/// velocity, the first step is `[scene] first_step_dt`
 /// long (the velocity it leaves is rescaled to 1/fps steps), and `step` gives each next
 /// frame and is the only part timed. Pinned vertices of the answer are copied from the
-/// skinned garment. A non-finite frame ends the rollout with an error.
+/// skinned garment. A non-finite frame ends the rollout with [`TrainError::Diverged`],
+/// which holds the frames before it.
 fn roll(
     g: &Garment,
     motion: &Motion,
     frames: usize,
+    x0: Vec<Vec3>,
     mut step: impl FnMut(StepInput<'_>) -> Result<Vec<Vec3>, TrainError>,
 ) -> Result<Rollout, TrainError> {
     let n = frames.min(motion.n_frames().saturating_sub(1));
-    let x0 = g.skinned_at(motion, 0)?;
+    if x0.len() != g.rest.n_vertices() {
+        return Err(TrainError::Invalid(format!(
+            "the start state has {} vertices, the garment {}",
+            x0.len(),
+            g.rest.n_vertices()
+        )));
+    }
     let mut cloth = vec![x0.clone()];
     let mut body = vec![g.body_at(motion, 0)?];
     let mut prev = x0.clone();
@@ -76,7 +84,8 @@ fn roll(
             g.pin_from(&mut next, p);
         }
         if !next.iter().all(|p| p.iter().all(|c| c.is_finite())) {
-            return Err(TrainError::Invalid(format!("the rollout diverged (non-finite positions) at frame {}", f + 1)));
+            let partial = Rollout { cloth, body, infer_seconds: secs, steps: f, refined: Vec::new() };
+            return Err(TrainError::Diverged { frame: f + 1, partial: Box::new(partial) });
         }
         prev = std::mem::replace(&mut curr, next);
         if f == 0 {
@@ -158,9 +167,23 @@ pub fn network_rollout(
     material: &Material,
     refine: Option<Refine<'_>>,
 ) -> Result<Rollout, TrainError> {
+    network_rollout_from(model, g, motion, frames, external, material, refine, g.skinned_at(motion, 0)?)
+}
+
+/// [`network_rollout`] from the start state `x0` (at rest) instead of the skinned garment.
+pub fn network_rollout_from(
+    model: &Model,
+    g: &Garment,
+    motion: &Motion,
+    frames: usize,
+    external: Vec3,
+    material: &Material,
+    refine: Option<Refine<'_>>,
+    x0: Vec<Vec3>,
+) -> Result<Rollout, TrainError> {
     let stepper = model.stepper();
     let accel = Vec3::from(g.scene.config.external_force.gravity) + external;
-    let model_mat = model_material(material);
+    let model_mat = *material;
     let refine = refine.filter(|r| r.iterations > 0);
     let energies = match &refine {
         Some(r) => Some((
@@ -174,7 +197,7 @@ pub fn network_rollout(
         ..Default::default()
     };
     let mut record = Vec::new();
-    let mut r = roll(g, motion, frames, |s| {
+    let mut r = roll(g, motion, frames, x0, |s| {
         let frame = FrameState {
             rest: &g.rest,
             prev: s.prev,
@@ -220,7 +243,7 @@ pub fn solver_rollout(
     let em = g.energy_model(energy.clone(), g.scene.dt())?;
     let em_first = g.energy_model(energy.clone(), g.scene.config.first_step_dt)?;
     let opts = senc_energy::SolverOptions { max_iterations: iterations.max(1), ..Default::default() };
-    roll(g, motion, frames, |s| {
+    roll(g, motion, frames, g.skinned_at(motion, 0)?, |s| {
         let em = if s.first { &em_first } else { &em };
         let fe = em.frame(s.curr, s.prev, Some((s.body_t, s.body_next)))?;
         let mut start: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| s.curr.to_vec());
@@ -229,4 +252,44 @@ pub fn solver_rollout(
         }
         Ok(senc_energy::solve(&fe, &start, &opts)?.0)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn smoke_garment() -> Garment {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let cfg = crate::RunConfig::read(root.join("configs/smoke.toml")).unwrap();
+        Garment::load(&crate::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap()
+    }
+
+    /// A non-finite frame ends the rollout with `TrainError::Diverged`, which keeps the
+    /// frames before it; a start state of the wrong size is refused.
+    #[test]
+    fn a_diverged_rollout_is_a_typed_error_with_its_frames() {
+        let g = smoke_garment();
+        let motion = &g.scene.test[0];
+        let x0 = g.skinned_at(motion, 0).unwrap();
+        // A free vertex (pinned ones are overwritten by the skinned garment).
+        let free = (0..x0.len()).find(|i| !g.pinned.contains(i)).unwrap();
+        let result = roll(&g, motion, 5, x0.clone(), |s| {
+            let mut next = s.curr.to_vec();
+            if !s.first {
+                next[free].y = f64::NAN;
+            }
+            Ok(next)
+        });
+        match result {
+            Err(TrainError::Diverged { frame, partial }) => {
+                assert_eq!(frame, 2);
+                assert_eq!(partial.cloth.len(), 2);
+                assert_eq!(partial.body.len(), 2);
+                assert_eq!(partial.cloth[0], x0);
+            }
+            other => panic!("expected a divergence, got {:?}", other.map(|r| r.steps)),
+        }
+        let short = x0[..3].to_vec();
+        assert!(matches!(roll(&g, motion, 5, short, |s| Ok(s.curr.to_vec())), Err(TrainError::Invalid(_))));
+    }
 }

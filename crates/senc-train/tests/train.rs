@@ -477,6 +477,41 @@ fn every_committed_config_parses() {
     }
 }
 
+/// The stress cases run an untrained network (the smoke config, elastic features on) on
+/// every case without an error; each reports finite numbers or says why it stopped, the
+/// stiff case costs more energy than the default and the inside start starts deeper.
+#[test]
+fn stress_cases_report_every_case() {
+    use senc_train::garment::Garment;
+    use senc_train::stress::{stress, towards_body, StressCase};
+    use senc_train::trainer::scene_material;
+    let cfg = senc_train::RunConfig::read(root().join("configs/smoke.toml")).unwrap();
+    assert!(cfg.model.graph_config().elastic_features);
+    let g = Garment::load(&senc_train::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
+    let motion = &g.scene.test[0];
+    let material = scene_material(&g).unwrap();
+    let energy = cfg.energy_for(2, material, [0.0; 3]);
+    let model = Model::new(cfg.model.model_config(), cfg.model.graph_config(), 3, &Device::flex());
+    let rows = stress(&model, &g, motion, 4, &energy, &material).unwrap();
+    assert_eq!(rows.iter().map(|r| r.case).collect::<Vec<_>>(), StressCase::ALL.to_vec());
+    for r in &rows {
+        assert_eq!(r.finite, r.error.is_none(), "{r:?}");
+        if r.finite {
+            assert_eq!(r.frames, 4, "{r:?}");
+            assert!(r.energy_mean_j.is_finite() && r.departure_cm.is_finite() && r.max_speed_cm >= 0.0, "{r:?}");
+        }
+    }
+    let (default, stiff) = (&rows[0], &rows[1]);
+    assert!(stiff.energy_max_j > default.energy_max_j, "{default:?} {stiff:?}");
+    // The inside start is deeper in the body than the skinned garment.
+    let body = g.scene.body_at(motion, 0).unwrap();
+    let q = senc_scene::BodyQuery::new(&body, &g.scene.body.faces).unwrap();
+    let x0 = g.skinned_at(motion, 0).unwrap();
+    let moved = towards_body(&x0, &q, 0.02);
+    let depth = |x: &[senc_geom::Vec3]| x.iter().map(|p| q.closest(p).signed_distance).sum::<f64>() / x.len() as f64;
+    assert!(depth(&moved) < depth(&x0) - 0.015, "{} vs {}", depth(&moved), depth(&x0));
+}
+
 fn method_cfg(garment: &str) -> RunConfig {
     RunConfig::read(root().join("configs").join(format!("{garment}.toml"))).unwrap()
 }

@@ -14,7 +14,7 @@ use super::method::first_scene;
 use crate::config::RunConfig;
 use crate::error::TrainError;
 use crate::garment::Garment;
-use crate::trainer::{model_material, scene_material};
+use crate::trainer::scene_material;
 
 /// One predictor's mean energy above the converged reference over the probe states.
 #[derive(Debug, Clone, Serialize)]
@@ -51,7 +51,7 @@ pub fn one_step_probe(
     let dt = g.scene.dt();
     let em = g.energy_model(cfg.energy_for(1, material, ext), dt)?;
     let accel = Vec3::from(g.scene.config.external_force.gravity) + Vec3::from(ext);
-    let mat = model_material(&material);
+    let mat = material;
     let mut names: Vec<String> = vec!["free flight".into(), "skinned".into()];
     names.extend(budgets.iter().map(|b| format!("solver {b} it")));
     if model.is_some() {

@@ -19,7 +19,7 @@ use crate::config::RunConfig;
 use crate::error::TrainError;
 use crate::garment::Garment;
 use crate::rollout::{refine_start, Rollout};
-use crate::trainer::{model_material, scene_material};
+use crate::trainer::scene_material;
 
 /// The [`CurvePoint::series`] of the reference solver's points.
 pub const SOLVER_SERIES: &str = "solver";
@@ -71,7 +71,7 @@ pub(crate) fn error_vs_runtime(
     refine.extend(cfg.eval.refine_budgets.iter().filter(|&&k| k > method.refine));
     let mut acc = vec![(0.0, 0.0, 0.0); budgets.len() + refine.len()];
     let accel = Vec3::from(g.scene.config.external_force.gravity) + Vec3::from(ext);
-    let mat = model_material(&material);
+    let mat = material;
     let stepper = model.stepper();
     for &s in &states {
         let (prev, curr) = (&r.cloth[s - 1], &r.cloth[s]);

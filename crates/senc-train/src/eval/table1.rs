@@ -20,6 +20,7 @@ use super::runtime::{error_vs_runtime, CurvePoint};
 use crate::config::RunConfig;
 use crate::error::TrainError;
 use crate::garment::Garment;
+use crate::metrics::{mean, mean_distance, mean_rise};
 use crate::rollout::{network_rollout, solver_rollout, Refine, Rollout};
 use crate::trainer::scene_material;
 
@@ -84,20 +85,6 @@ impl VolumeMeter {
         self.closure.update(x)?;
         Ok(self.ws.penetration(&self.closure, &self.options)?.volume)
     }
-}
-
-/// Mean Euclidean distance between corresponding points, in the points' unit (0 for none).
-fn mean_distance(a: &[Vec3], b: &[Vec3]) -> f64 {
-    a.iter().zip(b).map(|(p, q)| (p - q).norm()).sum::<f64>() / a.len().min(b.len()).max(1) as f64
-}
-
-/// Mean of `a.y − b.y` over corresponding points (0 for none).
-fn mean_rise(a: &[Vec3], b: &[Vec3]) -> f64 {
-    a.iter().zip(b).map(|(p, q)| p.y - q.y).sum::<f64>() / a.len().min(b.len()).max(1) as f64
-}
-
-fn mean(v: &[f64]) -> f64 {
-    v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
 /// The Table-1 row of rollouts `rollouts` (one per test motion, in `g.scene.test` order).
@@ -193,26 +180,4 @@ pub fn evaluate_solver(method: &Method) -> Result<Row, TrainError> {
     let (frames, iterations) = (s.cfg.eval.frames, s.cfg.eval.converged_iterations);
     let rollouts = s.roll(|motion| solver_rollout(&s.g, motion, frames, &s.energy, iterations))?;
     row(SOLVER_LABEL, &s.g, &rollouts, &mut s.meter)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn mean_distance_averages_point_offsets() {
-        let a = [Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0)];
-        let b = [Vec3::new(0.0, 3.0, 4.0), Vec3::new(1.0, 0.0, 1.0)];
-        assert!((mean_distance(&a, &b) - 3.0).abs() < 1e-12);
-        assert_eq!(mean_distance(&[], &[]), 0.0);
-    }
-
-    #[test]
-    fn mean_rise_is_signed_and_vertical() {
-        let a = [Vec3::new(5.0, 1.0, 0.0), Vec3::new(0.0, -2.0, 9.0)];
-        let b = [Vec3::zeros(), Vec3::zeros()];
-        assert!((mean_rise(&a, &b) + 0.5).abs() < 1e-12);
-        assert!((mean_rise(&b, &a) - 0.5).abs() < 1e-12);
-        assert_eq!(mean_rise(&[], &[]), 0.0);
-    }
 }

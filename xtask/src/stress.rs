@@ -1,0 +1,78 @@
+//! `cargo xtask stress`: a network rolled out alone on the stiff and extreme cases (μ and
+//! k_b ×100, the motion 3× faster, 50 m/s² wind, a start 2 cm towards the body), each
+//! case's energy, distance from the skinned garment and speed, and whether it stayed finite.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use senc_model::burn::tensor::Device;
+use senc_model::Model;
+use senc_train::eval::Method;
+use senc_train::stress::stress;
+use senc_train::trainer::scene_material;
+use senc_train::RunConfig;
+
+/// Arguments of `cargo xtask stress`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Checkpoint directory.
+    #[arg(long)]
+    pub checkpoint: PathBuf,
+    /// Config (default: the checkpoint's own).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Motion: a scene motion's name or a clip file (`.bvh`, `.msgpack`); default the
+    /// config's first test motion.
+    #[arg(long)]
+    pub motion: Option<String>,
+    /// Frames to simulate per case.
+    #[arg(long, default_value_t = 60)]
+    pub frames: usize,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs every case and prints the table.
+pub fn run(a: &Args) -> Result<()> {
+    let m = Method::new(&a.checkpoint, a.config.as_deref())?;
+    let cfg = RunConfig::read(&m.config)?;
+    let g = m.load_garment(&cfg)?;
+    let motion = match &a.motion {
+        Some(name) => g.scene.resolve_motion(name)?,
+        None => g
+            .scene
+            .test
+            .first()
+            .cloned()
+            .ok_or_else(|| anyhow::anyhow!("{}: no test motion; pass --motion", m.config.display()))?,
+    };
+    let material = scene_material(&g)?;
+    let energy = cfg.energy_for(2, material, g.scene.config.external_force.acceleration);
+    let model = Model::load(&m.checkpoint, &Device::flex())?;
+    let rows = stress(&model, &g, &motion, a.frames, &energy, &material)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+        return Ok(());
+    }
+    println!("{} on {} ({} frames per case), network alone:\n", g.name(), motion.name, a.frames);
+    println!("| case | what | frames | finite | mean E (J) | max E (J) | from skinned (cm) | max speed (cm/frame) |");
+    println!("|---|---|---:|---|---:|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {:?} | {} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.2} |",
+            r.case,
+            r.case.description(),
+            r.frames,
+            if r.finite { "yes" } else { "no" },
+            r.energy_mean_j,
+            r.energy_max_j,
+            r.departure_cm,
+            r.max_speed_cm
+        );
+    }
+    for r in rows.iter().filter(|r| !r.finite) {
+        println!("\n{:?}: {}", r.case, r.error.as_deref().unwrap_or(""));
+    }
+    Ok(())
+}
