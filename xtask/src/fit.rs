@@ -3,7 +3,7 @@
 //! its largest component, `#each` every component as its own garment; without `#` the whole
 //! file is one garment.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Result;
 use senc_geom::Vec3;
@@ -27,8 +27,33 @@ pub fn fit(
     Ok(senc_scene::fit::fit(name, &positions, &faces, body, weights, &opts)?)
 }
 
-/// `cargo xtask fit`.
-pub fn run(garment: &Path, body: &Path, out: Option<PathBuf>, scale: f64, no_align: bool, margin: f64) -> Result<()> {
+/// Arguments of `cargo xtask fit`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The garment OBJ.
+    #[arg(long)]
+    pub garment: PathBuf,
+    /// Body asset.
+    #[arg(long, default_value = "data/body.msgpack")]
+    pub body: PathBuf,
+    /// Output asset (default: next to the OBJ, .msgpack).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Factor to metres (0.01 for centimetres).
+    #[arg(long, default_value_t = 1.0)]
+    pub scale: f64,
+    /// Skip the rigid alignment (the garment is already placed on the body).
+    #[arg(long)]
+    pub no_align: bool,
+    /// Clearance from the body, m.
+    #[arg(long, default_value_t = 5e-3)]
+    pub margin: f64,
+}
+
+/// Fits the garment and writes the asset(s).
+pub fn run(args: &Args) -> Result<()> {
+    let Args { garment, body, out, scale, no_align, margin } = args;
+    let (out, scale, no_align, margin) = (out.clone(), *scale, *no_align, *margin);
     let body_asset = BodyAsset::load(body)?;
     let (file, select) = Select::from_arg(garment);
     let opts = FitOptions { align: !no_align, margin, ..FitOptions::default() };

