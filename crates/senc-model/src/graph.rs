@@ -456,22 +456,28 @@ fn validate(frame: &FrameState<'_>) -> Result<(), ModelError> {
     Ok(())
 }
 
-/// The elastic model (stretching and bending of senc-energy) of one rest mesh and material,
-/// cached per thread: a rollout or a training run builds graphs of the same few garments
-/// and materials over and over. Keyed by the rest mesh's address and sizes and the
-/// material's bits; at most [`ELASTIC_CACHE`] entries.
-fn elastic_accelerations(frame: &FrameState<'_>, masses: &[f64]) -> Result<Vec<Vec3>, ModelError> {
+/// The cloth's elastic acceleration `−∇(E_stretch + E_bend)(x[t]) / m_i` per vertex, from
+/// senc-energy's model of the garment (its own lumped masses). The model is cached per
+/// thread, since a rollout or a training run builds graphs of the same few garments and
+/// materials over and over: keyed by the rest mesh's contents (sizes and a hash of its
+/// positions and faces) and the material's bits, at most [`ELASTIC_CACHE`] entries.
+fn elastic_accelerations(frame: &FrameState<'_>) -> Result<Vec<Vec3>, ModelError> {
     use std::cell::RefCell;
+    use std::hash::{Hash, Hasher};
     use std::sync::Arc;
-    type Key = (usize, usize, usize, [u64; 5]);
+    type Key = (usize, usize, u64, [u64; 5]);
     thread_local! {
         static CACHE: RefCell<Vec<(Key, Arc<senc_energy::EnergyModel>)>> = const { RefCell::new(Vec::new()) };
     }
     let m = frame.material;
+    let rest = frame.rest;
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    rest.positions().iter().flat_map(|p| p.iter()).for_each(|c| c.to_bits().hash(&mut h));
+    rest.faces().hash(&mut h);
     let key: Key = (
-        frame.rest as *const TriMesh as usize,
-        frame.rest.n_vertices(),
-        frame.rest.n_faces(),
+        rest.n_vertices(),
+        rest.n_faces(),
+        h.finish(),
         [m.mu, m.lambda, m.thickness, m.bending_stiffness, m.density].map(f64::to_bits),
     );
     let model = CACHE.with(|c| {
@@ -484,7 +490,7 @@ fn elastic_accelerations(frame: &FrameState<'_>, masses: &[f64]) -> Result<Vec<V
         }
         let mut config = senc_energy::EnergyConfig { material: m, ..Default::default() };
         config.self_collision.weight = 0.0;
-        let model = Arc::new(senc_energy::EnergyModel::new(frame.rest, &config, None)?);
+        let model = Arc::new(senc_energy::EnergyModel::new(rest, &config, None)?);
         if c.len() >= ELASTIC_CACHE {
             c.remove(0);
         }
@@ -492,7 +498,7 @@ fn elastic_accelerations(frame: &FrameState<'_>, masses: &[f64]) -> Result<Vec<V
         Ok(model)
     })?;
     let grad = model.elastic_gradient(frame.curr)?;
-    Ok(grad.iter().zip(masses).map(|(g, &mi)| if mi > 0.0 { -g / mi } else { Vec3::zeros() }).collect())
+    Ok(grad.iter().zip(model.masses()).map(|(g, &mi)| if mi > 0.0 { -g / mi } else { Vec3::zeros() }).collect())
 }
 
 /// Most elastic models [`elastic_accelerations`] keeps per thread.
@@ -535,7 +541,7 @@ fn node_features(frame: &FrameState<'_>, elastic: bool) -> Result<Vec<f64>, Mode
     let masses = vertex_masses(frame.rest, frame.material.density);
     let m = frame.material;
     let g = frame.accel;
-    let elastic_acc = if elastic { elastic_accelerations(frame, &masses)? } else { Vec::new() };
+    let elastic_acc = if elastic { elastic_accelerations(frame)? } else { Vec::new() };
     for i in 0..n_cloth {
         let kinematic = frame.pinned.binary_search(&i).is_ok();
         let v = frame.curr[i] - frame.prev[i];
