@@ -6,12 +6,10 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use senc_model::burn::tensor::Device;
-use senc_model::Model;
 use senc_train::eval::Method;
 use senc_train::resting::against_solver;
 use senc_train::trainer::scene_material;
-use senc_train::RunConfig;
+use senc_train::{Phase, RunConfig};
 
 /// Arguments of `cargo xtask against-solver`.
 #[derive(clap::Args)]
@@ -43,8 +41,8 @@ pub fn run(a: &Args) -> Result<()> {
     let g = m.load_garment(&cfg)?;
     let motion = &g.scene.resolve_motion(&a.motion)?;
     let material = scene_material(&g)?;
-    let energy = cfg.energy_for(2, material, g.scene.config.external_force.acceleration);
-    let model = Model::load(&m.checkpoint, &Device::flex())?;
+    let energy = cfg.energy_for(Phase::Two, material, g.scene.config.external_force.acceleration);
+    let model = m.load_model()?;
     let (c, _, _) = against_solver(&model, &g, motion, a.frames, &material, &energy, a.solver)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&c)?);

@@ -22,8 +22,9 @@ use anyhow::{bail, Context, Result};
 use clap::Subcommand;
 use senc_geom::Vec3;
 use senc_model::bench::{bench_build, bench_graph, bench_network, bench_ops, export_graph, NetTiming};
-use senc_model::{BodyState, EdgeType, FrameState, ModelConfig};
+use senc_model::{EdgeType, ModelConfig};
 use senc_train::eval::first_scene;
+use senc_train::trainer::scene_material;
 use senc_train::{Garment, RunConfig};
 
 /// Arguments of `cargo xtask bench`.
@@ -124,24 +125,8 @@ fn model(o: &ModelArgs, device: &senc_model::burn::tensor::Device) -> Result<()>
     let curr = g.skinned_at(motion, f)?;
     let body_t = g.body_at(motion, f)?;
     let body_n = g.body_at(motion, f + 1)?;
-    let mc = &g.scene.config.material;
-    let (mu, lambda) = mc.lame()?;
-    let state = FrameState {
-        rest: &g.rest,
-        prev: &prev,
-        curr: &curr,
-        material: senc_model::Material {
-            mu,
-            lambda,
-            thickness: mc.thickness,
-            bending_stiffness: mc.bending,
-            density: mc.density,
-        },
-        accel: Vec3::from(g.scene.config.external_force.gravity),
-        dt: g.scene.dt(),
-        body: Some(BodyState { faces: g.body_faces(), curr: &body_t, next: &body_n }),
-        pinned: &g.pinned,
-    };
+    let gravity = Vec3::from(g.scene.config.external_force.gravity);
+    let state = g.frame_state([&prev, &curr], [&body_t, &body_n], scene_material(&g)?, gravity, g.scene.dt());
     let graph_config = cfg.model.graph_config();
     println!("threads: rayon {}; load average at start: {}", rayon_threads(), load());
     let (graph, st, build) = bench_build(&state, &graph_config, reps)?;

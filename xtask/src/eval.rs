@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use senc_train::eval::{
     evaluate, evaluate_solver, first_scene, one_step_probe, write_reports, CurvePoint, MarkdownTable, Method, Row,
-    RISE_FRAME, SOLVER_SERIES,
+    Series, RISE_FRAME,
 };
 use senc_train::RunConfig;
 
@@ -165,7 +165,7 @@ pub fn run(args: Args) -> Result<()> {
         eprintln!("evaluating {} on {}", m.label, m.config.display());
         let (row, c) = evaluate(&m).with_context(|| format!("evaluating {}", ck.display()))?;
         print_row(&row);
-        if m.refine > 0 {
+        if m.refine() > 0 {
             println!(
                 "  network answer rejected (refined from the inertial target) in {:.1}% of frames",
                 row.rejected_pct
@@ -177,7 +177,7 @@ pub fn run(args: Args) -> Result<()> {
         rows.push(row);
         // Solver points are per garment; keep them once per garment.
         for p in c {
-            if p.series == SOLVER_SERIES && curve.iter().any(|q| q.method == p.method && q.garment == p.garment) {
+            if p.series == Series::Solver && curve.iter().any(|q| q.method == p.method && q.garment == p.garment) {
                 continue;
             }
             curve.push(p);

@@ -11,13 +11,11 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use senc_geom::obj::write_obj;
 use senc_geom::Vec3;
-use senc_model::burn::tensor::Device;
-use senc_model::Model;
 use senc_scene::raster::{render, Layer, BODY, GARMENT_INSIDE, GARMENT_OUTSIDE};
-use senc_train::eval::Method;
+use senc_train::eval::{Method, Predictor};
 use senc_train::rollout::{network_rollout, solver_rollout, Refine};
 use senc_train::trainer::scene_material;
-use senc_train::RunConfig;
+use senc_train::{Phase, RunConfig};
 
 use crate::glb::{write_animated_glb, AnimatedMesh};
 
@@ -90,14 +88,11 @@ pub fn run(a: &Args) -> Result<()> {
     let wind = a.wind.as_deref().map(parse_wind).transpose()?.unwrap_or_else(Vec3::zeros);
     let material = scene_material(&g)?;
     let ext = Vec3::from(g.scene.config.external_force.acceleration) + wind;
-    let r = match a.solver {
-        Some(iterations) if a.checkpoint.is_none() => {
-            let energy = cfg.energy_for(2, material, ext.into());
-            solver_rollout(&g, motion, a.frames, &energy, iterations)?
-        }
+    let energy = cfg.energy_for(Phase::Two, material, ext.into());
+    let r = match (&m.predictor, a.solver) {
+        (Predictor::Solver, Some(iterations)) => solver_rollout(&g, motion, a.frames, &energy, iterations)?,
         _ => {
-            let model = Model::load(&m.checkpoint, &Device::flex())?;
-            let energy = cfg.energy_for(2, material, ext.into());
+            let model = m.load_model()?;
             let refine = a.refine.map(|iterations| Refine { energy: &energy, iterations });
             network_rollout(&model, &g, motion, a.frames, ext, &material, refine)?
         }

@@ -5,12 +5,10 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use senc_model::burn::tensor::Device;
-use senc_model::Model;
 use senc_train::eval::Method;
 use senc_train::stress::stress;
 use senc_train::trainer::scene_material;
-use senc_train::RunConfig;
+use senc_train::{Phase, RunConfig};
 
 /// Arguments of `cargo xtask stress`.
 #[derive(clap::Args)]
@@ -48,8 +46,8 @@ pub fn run(a: &Args) -> Result<()> {
             .ok_or_else(|| anyhow::anyhow!("{}: no test motion; pass --motion", m.config.display()))?,
     };
     let material = scene_material(&g)?;
-    let energy = cfg.energy_for(2, material, g.scene.config.external_force.acceleration);
-    let model = Model::load(&m.checkpoint, &Device::flex())?;
+    let energy = cfg.energy_for(Phase::Two, material, g.scene.config.external_force.acceleration);
+    let model = m.load_model()?;
     let rows = stress(&model, &g, &motion, a.frames, &energy, &material)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&rows)?);

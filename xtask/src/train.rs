@@ -13,7 +13,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use senc_train::config::PATH_KEYS;
-use senc_train::{RunConfig, Trainer};
+use senc_train::{Phase, RunConfig, Trainer};
 
 /// Arguments of `cargo xtask train`.
 #[derive(clap::Args)]
@@ -62,7 +62,7 @@ pub fn run(args: Args) -> Result<()> {
     let t = &trainer.config.train;
     let total = t.warmup_iterations + t.phase1_iterations + t.phase2_iterations;
     let p = &trainer.progress;
-    let done = p.warmup_done + if p.phase == 2 { t.phase1_iterations } else { 0 } + p.iteration;
+    let done = p.warmup_done + if p.phase == Phase::Two { t.phase1_iterations } else { 0 } + p.iteration;
     let bar = ProgressBar::new(total).with_position(done);
     bar.set_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} {per_sec} eta {eta} {msg}")
@@ -71,7 +71,7 @@ pub fn run(args: Args) -> Result<()> {
     let start = Instant::now();
     trainer.run(stop_after, |r| {
         bar.inc(1);
-        let phase = if r.phase == 0 { "warm-up".to_string() } else { format!("phase {}", r.phase) };
+        let phase = r.phase;
         let terms: Vec<String> = r.terms.iter().map(|(n, v)| format!("{n} {v:.3e}")).collect();
         bar.set_message(format!(
             "{phase} it {}/{} loss {:.4e} [{}] |g| {:.2e} skipped {}",

@@ -27,6 +27,58 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::TrainError;
 
+/// A stage of training. Logs and checkpoints store it as its number (0, 1, 2).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(try_from = "u8", into = "u8")]
+pub enum Phase {
+    /// Normaliser statistics are gathered; no optimiser step.
+    WarmUp,
+    /// HOOD's energy: everything but self-collision, area and repulsion.
+    #[default]
+    One,
+    /// The full energy, with SENC's self-collision term.
+    Two,
+}
+
+impl Phase {
+    /// The phase's number: 0 (warm-up), 1 or 2.
+    pub fn number(self) -> u8 {
+        self.into()
+    }
+}
+
+impl From<Phase> for u8 {
+    fn from(p: Phase) -> u8 {
+        match p {
+            Phase::WarmUp => 0,
+            Phase::One => 1,
+            Phase::Two => 2,
+        }
+    }
+}
+
+impl TryFrom<u8> for Phase {
+    type Error = String;
+
+    fn try_from(n: u8) -> Result<Self, String> {
+        match n {
+            0 => Ok(Phase::WarmUp),
+            1 => Ok(Phase::One),
+            2 => Ok(Phase::Two),
+            _ => Err(format!("training phase {n} does not exist (0 = warm-up, 1 or 2)")),
+        }
+    }
+}
+
+impl std::fmt::Display for Phase {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Phase::WarmUp => f.write_str("warm-up"),
+            p => write!(f, "phase {}", p.number()),
+        }
+    }
+}
+
 /// The `[train]` table: schedule, optimiser, randomisation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -474,12 +526,13 @@ impl RunConfig {
         Ok(())
     }
 
-    /// The energy config of a phase (1 or 2) for a material and external acceleration.
-    pub fn energy_for(&self, phase: u8, material: senc_energy::Material, external: [f64; 3]) -> EnergyConfig {
+    /// The energy config of a phase for a material and external acceleration: the run's
+    /// `[energy]`, without self-collision, area and repulsion before [`Phase::Two`].
+    pub fn energy_for(&self, phase: Phase, material: senc_energy::Material, external: [f64; 3]) -> EnergyConfig {
         let mut e = self.energy.clone();
         e.material = material;
         e.external_acceleration = external;
-        if phase == 1 {
+        if phase < Phase::Two {
             e.self_collision.weight = 0.0;
             e.area_weight = 0.0;
             e.repulsion.weight = 0.0;

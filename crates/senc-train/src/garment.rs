@@ -5,6 +5,7 @@
 use std::sync::Arc;
 
 use senc_geom::{HoleSelection, TriMesh, Vec3};
+use senc_model::{BodyState, FrameState, Material};
 use senc_scene::{skin, Motion, Scene, SkinWeights};
 
 use crate::error::TrainError;
@@ -185,6 +186,29 @@ impl Garment {
     /// The proxy body's faces.
     pub fn body_faces(&self) -> &[[u32; 3]] {
         self.proxy_mesh.faces()
+    }
+
+    /// The network's view of one step of this garment: the cloth at t−1 and t, the proxy
+    /// body at t and t+1, the material, gravity plus external acceleration (m/s²) and the
+    /// step's length (s).
+    pub fn frame_state<'a>(
+        &'a self,
+        [prev, curr]: [&'a [Vec3]; 2],
+        [body_t, body_next]: [&'a [Vec3]; 2],
+        material: Material,
+        accel: Vec3,
+        dt: f64,
+    ) -> FrameState<'a> {
+        FrameState {
+            rest: &self.rest,
+            prev,
+            curr,
+            material,
+            accel,
+            dt,
+            body: Some(BodyState { faces: self.body_faces(), curr: body_t, next: body_next }),
+            pinned: &self.pinned,
+        }
     }
 }
 

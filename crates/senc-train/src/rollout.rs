@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use senc_energy::Material;
 use senc_geom::Vec3;
-use senc_model::{BodyState, FrameState, Model};
+use senc_model::Model;
 use senc_scene::Motion;
 
 use crate::error::TrainError;
@@ -198,16 +198,8 @@ pub fn network_rollout_from(
     };
     let mut record = Vec::new();
     let mut r = roll(g, motion, frames, x0, |s| {
-        let frame = FrameState {
-            rest: &g.rest,
-            prev: s.prev,
-            curr: s.curr,
-            material: model_mat,
-            accel,
-            dt: if s.first { g.scene.config.first_step_dt } else { g.scene.dt() },
-            body: Some(BodyState { faces: g.body_faces(), curr: s.body_t, next: s.body_next }),
-            pinned: &g.pinned,
-        };
+        let dt = if s.first { g.scene.config.first_step_dt } else { g.scene.dt() };
+        let frame = g.frame_state([s.prev, s.curr], [s.body_t, s.body_next], model_mat, accel, dt);
         let mut next = stepper.step(&frame)?;
         let Some((em, em_first)) = &energies else { return Ok(next) };
         let fe = (if s.first { em_first } else { em }).frame(s.curr, s.prev, Some((s.body_t, s.body_next)))?;

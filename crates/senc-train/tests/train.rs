@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use senc_model::burn::tensor::Device;
 use senc_model::Model;
 use senc_train::clip::flat_params;
-use senc_train::eval::{evaluate, evaluate_solver, first_scene, training_config, write_reports, Method};
-use senc_train::{RunConfig, Trainer};
+use senc_train::eval::{evaluate, evaluate_solver, first_scene, training_config, write_reports, Method, Series};
+use senc_train::{Phase, RunConfig, Trainer};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -51,7 +51,7 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     let mut t = Trainer::new(&cfg, &a).unwrap();
     let mut losses_a = Vec::new();
     t.run(None, |r| {
-        if r.phase > 0 {
+        if r.phase != Phase::WarmUp {
             losses_a.push(r.loss)
         }
     })
@@ -92,9 +92,9 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     assert!(row.departure_cm.is_finite() && row.departure_cm > 0.0, "{}", row.departure_cm);
     assert_eq!(curve.len(), 5, "3 solver budgets + the network + the network refined by 2 it");
     assert!(curve.iter().all(|p| p.energy_gap.is_finite()));
-    assert!(curve[..3].iter().all(|p| p.series == "solver"));
+    assert!(curve[..3].iter().all(|p| p.series == Series::Solver));
     let (net, refined) = (&curve[3], &curve[4]);
-    assert_eq!((net.series.as_str(), refined.series.as_str()), (m.label.as_str(), m.label.as_str()));
+    assert_eq!((&net.series, &refined.series), (&Series::Network(m.label.clone()), &Series::Network(m.label.clone())));
     assert_eq!(refined.method, format!("{} + 2 it", m.label));
     // Newton with a line search from the better of the network's answer and the inertial
     // target cannot end above the network's answer.
@@ -178,7 +178,7 @@ fn visited_state_pool_and_newton_signal_resume_exactly() {
     let mut t = Trainer::new(&cfg, &a).unwrap();
     let mut losses = Vec::new();
     t.run(None, |r| {
-        if r.phase > 0 {
+        if r.phase != Phase::WarmUp {
             losses.push(r.loss)
         }
     })
@@ -228,7 +228,7 @@ fn finished_run_extends_when_its_config_asks_for_more() {
     assert!(!t.finished());
     let mut phase2_steps = 0;
     t.run(None, |r| {
-        if r.phase == 2 {
+        if r.phase == Phase::Two {
             phase2_steps += 1
         }
     })
@@ -259,7 +259,7 @@ fn phase2_from_a_copy_of_phase1_equals_the_uninterrupted_run() {
         std::fs::copy(&f, b.join("latest").join(f.file_name().unwrap())).unwrap();
     }
     let mut t = Trainer::resume(&b).unwrap();
-    assert_eq!((t.progress.phase, t.progress.iteration), (2, 0));
+    assert_eq!((t.progress.phase, t.progress.iteration), (Phase::Two, 0));
     t.run(None, |_| {}).unwrap();
     assert!(t.finished());
     let (wa, wb) = (params(&a.join("phase2")), params(&b.join("phase2")));
@@ -292,7 +292,7 @@ fn reference_solver_rollout_keeps_the_tshirt_whole() {
     let cfg = senc_train::RunConfig::read(root().join("configs/tshirt.toml")).unwrap();
     let g = Garment::load(&senc_train::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
     let motion = &g.scene.test[0];
-    let energy = cfg.energy_for(1, scene_material(&g).unwrap(), [0.0; 3]);
+    let energy = cfg.energy_for(Phase::One, scene_material(&g).unwrap(), [0.0; 3]);
     let frames = 6;
     let r = solver_rollout(&g, motion, frames, &energy, 4).unwrap();
     assert_eq!(r.cloth.len(), frames + 1);
@@ -326,7 +326,7 @@ fn pinned_waist_follows_the_body_and_holds_the_skirt() {
     let motion = &g.scene.test[0];
     let material = scene_material(&g).unwrap();
     let frames = 8;
-    let energy = cfg.energy_for(1, material, [0.0; 3]);
+    let energy = cfg.energy_for(Phase::One, material, [0.0; 3]);
     let solver = solver_rollout(&g, motion, frames, &energy, 6).unwrap();
     let model = Model::new(cfg.model.model_config(), cfg.model.graph_config(), 3, &Device::flex());
     let net = rollout(&model, &g, motion, frames, senc_geom::Vec3::zeros(), &material).unwrap();
@@ -368,7 +368,7 @@ fn refined_rollout_never_raises_the_energy() {
     let none = network_rollout(&model, &g, motion, frames, ext, &material, None).unwrap();
     assert_eq!(plain.cloth, none.cloth);
     assert!(none.refined.is_empty());
-    let energy = cfg.energy_for(2, material, [0.0; 3]);
+    let energy = cfg.energy_for(Phase::Two, material, [0.0; 3]);
     assert!(energy.self_collision.weight > 0.0, "smoke.toml's phase 2 has self-collision");
     let zero =
         network_rollout(&model, &g, motion, frames, ext, &material, Some(Refine { energy: &energy, iterations: 0 }))
@@ -395,7 +395,7 @@ fn relaxed_start_leaves_the_body_and_keeps_velocities() {
     use senc_train::trainer::scene_material;
     let cfg = senc_train::RunConfig::read(root().join("configs/tshirt.toml")).unwrap();
     let g = Garment::load(&senc_train::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
-    let em = g.energy_model(cfg.energy_for(1, scene_material(&g).unwrap(), [0.0; 3]), g.scene.dt()).unwrap();
+    let em = g.energy_model(cfg.energy_for(Phase::One, scene_material(&g).unwrap(), [0.0; 3]), g.scene.dt()).unwrap();
     let motion = &g.scene.train[0];
     let f = 20;
     let body = g.body_at(motion, f).unwrap();
@@ -490,7 +490,7 @@ fn stress_cases_report_every_case() {
     let g = Garment::load(&senc_train::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
     let motion = &g.scene.test[0];
     let material = scene_material(&g).unwrap();
-    let energy = cfg.energy_for(2, material, [0.0; 3]);
+    let energy = cfg.energy_for(Phase::Two, material, [0.0; 3]);
     let model = Model::new(cfg.model.model_config(), cfg.model.graph_config(), 3, &Device::flex());
     let rows = stress(&model, &g, motion, 4, &energy, &material).unwrap();
     assert_eq!(rows.iter().map(|r| r.case).collect::<Vec<_>>(), StressCase::ALL.to_vec());

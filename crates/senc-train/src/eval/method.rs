@@ -3,6 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
+use senc_model::burn::tensor::Device;
+use senc_model::Model;
+
 use crate::config::RunConfig;
 use crate::error::TrainError;
 use crate::garment::Garment;
@@ -13,20 +16,35 @@ use crate::trainer::CONFIG_FILE;
 /// to the checkpoint directory (`config.toml` for a self-contained checkpoint).
 pub const SOURCE_FILE: &str = "source.txt";
 
-/// A checkpoint to evaluate, with the row label and the config whose scene it runs on.
+/// What produces a method's frames.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Predictor {
+    /// A trained network.
+    Network {
+        /// Checkpoint directory.
+        checkpoint: PathBuf,
+        /// Newton iterations (phase-2 energy) refining each network frame; 0 = the network
+        /// alone.
+        refine: usize,
+    },
+    /// The reference solver: Newton from its own previous frames, no checkpoint.
+    Solver,
+}
+
+/// A network or the reference solver to evaluate, with the row label and the config whose
+/// scene it runs on.
 #[derive(Debug, Clone)]
 pub struct Method {
-    /// Row label: the method the checkpoint was trained as (see [`RunConfig::method_name`]).
+    /// Row label: the method the checkpoint was trained as (see [`RunConfig::method_name`]),
+    /// or [`SOLVER_LABEL`].
     pub label: String,
-    /// Checkpoint directory.
-    pub checkpoint: PathBuf,
+    /// The network (with its refinement) or the solver.
+    pub predictor: Predictor,
     /// Config file (scene, energy, eval settings).
     pub config: PathBuf,
     /// A garment asset that replaces the scene's garment (an unseen garment, fitted to the
     /// body first); `None` runs the scene's own garment.
     pub garment: Option<PathBuf>,
-    /// Newton iterations (phase-2 energy) refining each network frame; 0 = the network alone.
-    pub refine: usize,
     /// Compute the error-against-run-time points (default true; `xtask eval` turns it off
     /// for a checkpoint's second and later rows, whose curve would repeat the first's).
     pub curve: bool,
@@ -71,7 +89,8 @@ impl Method {
         if checkpoint.file_name().is_some_and(|n| n == "phase1") {
             label += " (phase 1)";
         }
-        Ok(Self { label, checkpoint: checkpoint.to_path_buf(), config, garment: None, refine: 0, curve: true })
+        let predictor = Predictor::Network { checkpoint: checkpoint.to_path_buf(), refine: 0 };
+        Ok(Self { label, predictor, config, garment: None, curve: true })
     }
 
     /// The reference solver on the config `config`'s scene (no checkpoint; used by
@@ -79,22 +98,43 @@ impl Method {
     pub fn solver(config: &Path) -> Self {
         Self {
             label: SOLVER_LABEL.into(),
-            checkpoint: PathBuf::new(),
+            predictor: Predictor::Solver,
             config: config.to_path_buf(),
             garment: None,
-            refine: 0,
             curve: true,
         }
     }
 
     /// The same method with each network frame refined by at most `iterations` Newton
-    /// iterations of the reference solver; the label gains " + N it".
+    /// iterations of the reference solver; the label gains " + N it". The solver is
+    /// returned as it is.
     pub fn with_refine(mut self, iterations: usize) -> Self {
-        if iterations > 0 {
-            self.label = format!("{} + {iterations} it", self.label);
+        if let Predictor::Network { refine, .. } = &mut self.predictor {
+            if iterations > 0 {
+                self.label = format!("{} + {iterations} it", self.label);
+            }
+            *refine = iterations;
         }
-        self.refine = iterations;
         self
+    }
+
+    /// Newton iterations refining each network frame (0 for the network alone and for the
+    /// solver).
+    pub fn refine(&self) -> usize {
+        match self.predictor {
+            Predictor::Network { refine, .. } => refine,
+            Predictor::Solver => 0,
+        }
+    }
+
+    /// The network of a [`Predictor::Network`] method, loaded on the CPU backend.
+    pub fn load_model(&self) -> Result<Model, TrainError> {
+        match &self.predictor {
+            Predictor::Network { checkpoint, .. } => Ok(Model::load(checkpoint, &Device::flex())?),
+            Predictor::Solver => {
+                Err(TrainError::Invalid("the reference solver has no network to load; give a checkpoint".into()))
+            }
+        }
     }
 
     /// The same method run on another garment asset (see [`Garment::load_unseen`]).

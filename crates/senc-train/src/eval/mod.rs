@@ -13,8 +13,8 @@ pub mod report;
 pub mod runtime;
 pub mod table1;
 
-pub use method::{first_scene, training_config, Method, SOLVER_LABEL};
+pub use method::{first_scene, training_config, Method, Predictor, SOLVER_LABEL};
 pub use probe::{one_step_probe, ProbeRow};
 pub use report::{write_reports, MarkdownTable};
-pub use runtime::{CurvePoint, SOLVER_SERIES};
+pub use runtime::{CurvePoint, Series};
 pub use table1::{evaluate, evaluate_solver, Row, VolumeMeter, RISE_FRAME};

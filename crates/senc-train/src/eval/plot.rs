@@ -6,7 +6,7 @@
 
 use plotters::prelude::*;
 
-use super::runtime::{CurvePoint, SOLVER_SERIES};
+use super::runtime::{CurvePoint, Series};
 use crate::error::TrainError;
 
 /// Width of one garment's panel and the height, pixels.
@@ -73,8 +73,8 @@ fn plot_error(e: impl std::fmt::Display) -> TrainError {
     TrainError::Invalid(format!("drawing the error-against-run-time plot: {e}"))
 }
 
-fn unique<'a>(items: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
-    let mut out: Vec<&str> = Vec::new();
+fn unique<'a, T: PartialEq + ?Sized>(items: impl Iterator<Item = &'a T>) -> Vec<&'a T> {
+    let mut out: Vec<&T> = Vec::new();
     for i in items {
         if !out.contains(&i) {
             out.push(i);
@@ -86,26 +86,26 @@ fn unique<'a>(items: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
 /// The label of one point beside its marker: the solver's iterations ("4 it"), or a
 /// network's refinement ("+2 it"; nothing for the network alone).
 fn point_label(p: &CurvePoint) -> String {
-    if p.series == SOLVER_SERIES {
-        p.method.strip_prefix("solver ").unwrap_or(&p.method).to_string()
-    } else {
-        match p.method.strip_prefix(p.series.as_str()).map(|r| r.trim_start_matches(" + ")) {
+    match &p.series {
+        Series::Solver => p.method.strip_prefix("solver ").unwrap_or(&p.method).to_string(),
+        Series::Network(label) => match p.method.strip_prefix(label.as_str()).map(|r| r.trim_start_matches(" + ")) {
             Some(r) if !r.is_empty() => format!("+{r}"),
             _ => String::new(),
-        }
+        },
     }
 }
 
 /// The plot of `curve` as SVG text.
 pub fn runtime_svg(curve: &[CurvePoint]) -> Result<String, TrainError> {
     let garments = unique(curve.iter().map(|p| p.garment.as_str()));
+    let solver = Series::Solver;
     let series = unique(
-        std::iter::once(SOLVER_SERIES)
-            .filter(|s| curve.iter().any(|p| p.series == *s))
-            .chain(curve.iter().map(|p| p.series.as_str())),
+        std::iter::once(&solver)
+            .filter(|s| curve.iter().any(|p| p.series == **s))
+            .chain(curve.iter().map(|p| &p.series)),
     );
-    let colour = |s: &str| -> RGBColor {
-        let networks: Vec<&&str> = series.iter().filter(|n| **n != SOLVER_SERIES).collect();
+    let colour = |s: &Series| -> RGBColor {
+        let networks: Vec<&&Series> = series.iter().filter(|n| ***n != Series::Solver).collect();
         match networks.iter().position(|n| **n == s) {
             Some(i) => COLOURS[i % COLOURS.len()],
             None => BLACK,
@@ -154,14 +154,14 @@ pub fn runtime_svg(curve: &[CurvePoint]) -> Result<String, TrainError> {
                 .label("converged reference (gap 0)")
                 .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.mix(0.5)));
             for s in &series {
-                let mine: Vec<&&CurvePoint> = pts.iter().filter(|p| p.series == *s).collect();
+                let mine: Vec<&&CurvePoint> = pts.iter().filter(|p| p.series == **s).collect();
                 if mine.is_empty() {
                     continue;
                 }
                 let c = colour(s);
                 let xy: Vec<(f64, f64)> =
                     mine.iter().map(|p| (p.ms_per_frame.max(1e-3), scale.t(p.energy_gap))).collect();
-                let name = if *s == SOLVER_SERIES { "reference solver from the inertial target" } else { s };
+                let name = s.name();
                 chart
                     .draw_series(LineSeries::new(xy.clone(), c.stroke_width(2)))
                     .map_err(plot_error)?
@@ -214,7 +214,7 @@ mod tests {
             garment: garment.into(),
             ms_per_frame: ms,
             energy_gap: gap,
-            series: series.into(),
+            series: if series == "solver" { Series::Solver } else { Series::Network(series.into()) },
             volume_cm3: 0.0,
         };
         let curve = vec![

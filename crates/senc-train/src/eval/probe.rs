@@ -7,11 +7,11 @@ use std::path::Path;
 use senc_energy::{solve, SolverOptions};
 use senc_geom::Vec3;
 use senc_model::burn::tensor::Device;
-use senc_model::{BodyState, FrameState, Model};
+use senc_model::Model;
 use serde::Serialize;
 
 use super::method::first_scene;
-use crate::config::RunConfig;
+use crate::config::{Phase, RunConfig};
 use crate::error::TrainError;
 use crate::garment::Garment;
 use crate::trainer::scene_material;
@@ -49,7 +49,7 @@ pub fn one_step_probe(
     let material = scene_material(&g)?;
     let ext = g.scene.config.external_force.acceleration;
     let dt = g.scene.dt();
-    let em = g.energy_model(cfg.energy_for(1, material, ext), dt)?;
+    let em = g.energy_model(cfg.energy_for(Phase::One, material, ext), dt)?;
     let accel = Vec3::from(g.scene.config.external_force.gravity) + Vec3::from(ext);
     let mat = material;
     let mut names: Vec<String> = vec!["free flight".into(), "skinned".into()];
@@ -95,16 +95,7 @@ pub fn one_step_probe(
             answers.push(solve(&fe, &flight, &SolverOptions { max_iterations: b, ..Default::default() })?.0);
         }
         if let Some(m) = &model {
-            let frame = FrameState {
-                rest: &g.rest,
-                prev: &prev,
-                curr: &curr,
-                material: mat,
-                accel,
-                dt,
-                body: Some(BodyState { faces: g.body_faces(), curr: &bt, next: &bn }),
-                pinned: &g.pinned,
-            };
+            let frame = g.frame_state([&prev, &curr], [&bt, &bn], mat, accel, dt);
             let mut x = m.step(&frame)?;
             g.pin_from(&mut x, &answers[1]);
             answers.push(x);

@@ -10,19 +10,36 @@ use std::time::Instant;
 
 use senc_energy::{solve, SolverOptions};
 use senc_geom::Vec3;
-use senc_model::{BodyState, FrameState, Model};
+use senc_model::Model;
 use serde::Serialize;
 
 use super::method::Method;
 use super::table1::VolumeMeter;
-use crate::config::RunConfig;
+use crate::config::{Phase, RunConfig};
 use crate::error::TrainError;
 use crate::garment::Garment;
 use crate::rollout::{refine_start, Rollout};
 use crate::trainer::scene_material;
 
-/// The [`CurvePoint::series`] of the reference solver's points.
-pub const SOLVER_SERIES: &str = "solver";
+/// The curve a [`CurvePoint`] belongs to.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Series {
+    /// The reference solver from the inertial target, at several iteration budgets.
+    Solver,
+    /// A network alone and refined by more and more iterations, by its label.
+    Network(String),
+}
+
+impl Series {
+    /// The legend's name of the curve.
+    pub fn name(&self) -> &str {
+        match self {
+            Series::Solver => "reference solver from the inertial target",
+            Series::Network(label) => label,
+        }
+    }
+}
 
 /// One point of the error-against-run-time comparison (averaged over the test states).
 #[derive(Debug, Clone, Serialize)]
@@ -35,9 +52,8 @@ pub struct CurvePoint {
     pub ms_per_frame: f64,
     /// Mean energy gap to the converged reference, J.
     pub energy_gap: f64,
-    /// The curve this point belongs to: "solver", or the network's label (its refined points
-    /// share it).
-    pub series: String,
+    /// The curve this point belongs to (a network's refined points share its curve).
+    pub series: Series,
     /// Mean penetration volume of the answers, cm³.
     pub volume_cm3: f64,
 }
@@ -56,7 +72,7 @@ pub(crate) fn error_vs_runtime(
     let material = scene_material(g)?;
     let ext = g.scene.config.external_force.acceleration;
     let dt = g.scene.dt();
-    let em = g.energy_model(cfg.energy_for(2, material, ext), dt)?;
+    let em = g.energy_model(cfg.energy_for(Phase::Two, material, ext), dt)?;
     // States from frame 2 on: frame 1's stored predecessor is the start, whose difference
     // to frame 1 spans the long first step, not a 1/fps velocity.
     if r.steps < 3 {
@@ -67,8 +83,8 @@ pub(crate) fn error_vs_runtime(
     let budgets = &cfg.eval.solver_budgets;
     // The network's points: alone (or refined as the method's rollout was), then refined
     // by each of `[eval] refine_budgets` more.
-    let mut refine = vec![method.refine];
-    refine.extend(cfg.eval.refine_budgets.iter().filter(|&&k| k > method.refine));
+    let mut refine = vec![method.refine()];
+    refine.extend(cfg.eval.refine_budgets.iter().filter(|&&k| k > method.refine()));
     let mut acc = vec![(0.0, 0.0, 0.0); budgets.len() + refine.len()];
     let accel = Vec3::from(g.scene.config.external_force.gravity) + Vec3::from(ext);
     let mat = material;
@@ -89,16 +105,7 @@ pub(crate) fn error_vs_runtime(
             acc[i].2 += meter.volume(&x)? * 1e6;
         }
         let t0 = Instant::now();
-        let frame = FrameState {
-            rest: &g.rest,
-            prev,
-            curr,
-            material: mat,
-            accel,
-            dt,
-            body: Some(BodyState { faces: g.body_faces(), curr: bt, next: bn }),
-            pinned: &g.pinned,
-        };
+        let frame = g.frame_state([prev, curr], [bt, bn], mat, accel, dt);
         let mut x = stepper.step(&frame)?;
         g.pin_from(&mut x, &r.cloth[s + 1]);
         let net_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -122,12 +129,11 @@ pub(crate) fn error_vs_runtime(
         }
     }
     let n = states.len() as f64;
-    let base = method.label.strip_suffix(&format!(" + {} it", method.refine)).unwrap_or(&method.label);
-    let names =
-        budgets.iter().map(|b| (format!("solver {b} it"), SOLVER_SERIES.to_string())).chain(refine.iter().map(|&k| {
-            let name = if k == 0 { base.to_string() } else { format!("{base} + {k} it") };
-            (name, base.to_string())
-        }));
+    let base = method.label.strip_suffix(&format!(" + {} it", method.refine())).unwrap_or(&method.label);
+    let names = budgets.iter().map(|b| (format!("solver {b} it"), Series::Solver)).chain(refine.iter().map(|&k| {
+        let name = if k == 0 { base.to_string() } else { format!("{base} + {k} it") };
+        (name, Series::Network(base.to_string()))
+    }));
     let out = names
         .zip(&acc)
         .map(|((method, series), a)| CurvePoint {

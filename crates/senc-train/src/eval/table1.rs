@@ -10,14 +10,12 @@
 use senc_energy::EnergyConfig;
 use senc_geom::{close_holes, Closure, Vec3};
 use senc_gia::{GiaOptions, GiaWorkspace};
-use senc_model::burn::tensor::Device;
-use senc_model::Model;
 use senc_scene::{BodyQuery, Motion};
 use serde::Serialize;
 
 use super::method::{Method, SOLVER_LABEL};
 use super::runtime::{error_vs_runtime, CurvePoint};
-use crate::config::RunConfig;
+use crate::config::{Phase, RunConfig};
 use crate::error::TrainError;
 use crate::garment::Garment;
 use crate::metrics::{mean, mean_distance, mean_rise};
@@ -142,7 +140,7 @@ impl Setup {
                 cfg.path.display()
             )));
         }
-        let energy = cfg.energy_for(2, scene_material(&g)?, g.scene.config.external_force.acceleration);
+        let energy = cfg.energy_for(Phase::Two, scene_material(&g)?, g.scene.config.external_force.acceleration);
         let meter = VolumeMeter::new(&g, cfg.energy.self_collision.gia)?;
         Ok(Self { cfg, g, energy, meter })
     }
@@ -156,11 +154,11 @@ impl Setup {
 /// Evaluates one method: its Table-1 row and the network's error-against-run-time points.
 pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
     let mut s = Setup::new(method)?;
-    let model = Model::load(&method.checkpoint, &Device::flex())?;
+    let model = method.load_model()?;
     let material = scene_material(&s.g)?;
     let ext = Vec3::from(s.g.scene.config.external_force.acceleration);
     let rollouts = s.roll(|motion| {
-        let refine = Some(Refine { energy: &s.energy, iterations: method.refine });
+        let refine = Some(Refine { energy: &s.energy, iterations: method.refine() });
         network_rollout(&model, &s.g, motion, s.cfg.eval.frames, ext, &material, refine)
     })?;
     let row = row(&method.label, &s.g, &rollouts, &mut s.meter)?;

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::sampling::Sequence;
 use super::Trainer;
+use crate::config::Phase;
 use crate::error::TrainError;
 
 /// Name of the rolling checkpoint directory inside the output directory.
@@ -24,8 +25,8 @@ pub const CONFIG_FILE: &str = "config.toml";
 pub struct Progress {
     /// Warm-up iterations done.
     pub warmup_done: u64,
-    /// Current phase (1 or 2).
-    pub phase: u8,
+    /// Current training phase ([`Phase::One`] or [`Phase::Two`]).
+    pub phase: Phase,
     /// Iterations done in the current phase.
     pub iteration: u64,
     /// Steps skipped for non-finite values, per phase.

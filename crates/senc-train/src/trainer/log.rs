@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use crate::config::Phase;
 use crate::error::TrainError;
 
 /// The loss log inside the output directory.
@@ -14,8 +15,8 @@ const HEADER: [&str; 8] = ["phase", "iteration", "lr", "rollout_len", "loss", "g
 /// What one iteration did.
 #[derive(Debug, Clone)]
 pub struct StepReport {
-    /// 0 for warm-up, else 1 or 2.
-    pub phase: u8,
+    /// The phase this iteration belongs to.
+    pub phase: Phase,
     /// Iteration within the phase (after this step), or warm-up iterations done.
     pub iteration: u64,
     /// Iterations of this phase.
@@ -49,7 +50,7 @@ pub(super) fn append(path: &Path, r: &StepReport) -> Result<(), TrainError> {
     let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(file);
     let terms: Vec<String> = r.terms.iter().map(|(n, v)| format!("{n}={v:.6e}")).collect();
     w.write_record([
-        r.phase.to_string(),
+        r.phase.number().to_string(),
         r.iteration.to_string(),
         format!("{:.6e}", r.lr),
         r.rollout_len.to_string(),
@@ -64,14 +65,14 @@ pub(super) fn append(path: &Path, r: &StepReport) -> Result<(), TrainError> {
 
 /// Drops the rows logged after `(phase, iteration)` (a resumed run redoes them). A missing
 /// log is left missing.
-pub(super) fn truncate_after(path: &Path, phase: u8, iteration: u64) -> Result<(), TrainError> {
+pub(super) fn truncate_after(path: &Path, phase: Phase, iteration: u64) -> Result<(), TrainError> {
     let Ok(mut reader) = csv::Reader::from_path(path) else { return Ok(()) };
     let mut keep = Vec::new();
     for record in reader.records() {
         let record = record.map_err(|e| TrainError::io(path, e))?;
         let p = record.get(0).and_then(|p| p.parse::<u8>().ok());
         let i = record.get(1).and_then(|i| i.parse::<u64>().ok());
-        if p.zip(i).is_none_or(|key| key <= (phase, iteration)) {
+        if p.zip(i).is_none_or(|key| key <= (phase.number(), iteration)) {
             keep.push(record);
         }
     }

@@ -46,7 +46,7 @@ pub use checkpoint::{Progress, CONFIG_FILE, LATEST, OPTIM_FILE, PROGRESS_FILE};
 pub use log::{StepReport, CSV_FILE};
 pub use sampling::{scene_material, Sequence};
 
-use crate::config::RunConfig;
+use crate::config::{Phase, RunConfig};
 use crate::error::TrainError;
 use crate::garment::Garment;
 use sampling::{advance, finite, frame_state};
@@ -93,7 +93,7 @@ impl Trainer {
             model,
             optim: AdamConfig::new().init(),
             rng,
-            progress: Progress { phase: 1, ..Default::default() },
+            progress: Progress { phase: Phase::One, ..Default::default() },
             out: out.to_path_buf(),
             energy_cache: None,
             relax_energy: Vec::new(),
@@ -129,7 +129,7 @@ impl Trainer {
             .map_err(|e| TrainError::Checkpoint { path: ppath.clone(), message: e.to_string() })?;
         // A finished run whose config now asks for more phase-2 iterations goes on training
         // (extending a run: raise `phase2_iterations` in OUT/latest/config.toml, then resume).
-        if progress.finished && progress.phase == 2 && progress.iteration < config.train.phase2_iterations {
+        if progress.finished && progress.phase == Phase::Two && progress.iteration < config.train.phase2_iterations {
             tracing::info!(
                 done = progress.iteration,
                 target = config.train.phase2_iterations,
@@ -140,7 +140,7 @@ impl Trainer {
         // Phase 2 starts with a fresh Adam state (see `end_phase`); a checkpoint taken at
         // that start by older code (a copy of OUT/phase1) may still hold phase 1's moments,
         // which must not leak into phase 2.
-        let optim = if progress.phase == 2 && progress.iteration == 0 {
+        let optim = if progress.phase == Phase::Two && progress.iteration == 0 {
             AdamConfig::new().init()
         } else {
             AdamConfig::new().init().load_record(record)
@@ -188,11 +188,11 @@ impl Trainer {
     }
 
     /// Iterations of phase `p`.
-    pub fn phase_iterations(&self, p: u8) -> u64 {
-        if p == 1 {
-            self.config.train.phase1_iterations
-        } else {
-            self.config.train.phase2_iterations
+    pub fn phase_iterations(&self, p: Phase) -> u64 {
+        match p {
+            Phase::WarmUp => self.config.train.warmup_iterations,
+            Phase::One => self.config.train.phase1_iterations,
+            Phase::Two => self.config.train.phase2_iterations,
         }
     }
 
@@ -233,7 +233,7 @@ impl Trainer {
         self.model.normalizers.output.update(&rows);
         self.progress.warmup_done += 1;
         Ok(StepReport {
-            phase: 0,
+            phase: Phase::WarmUp,
             iteration: self.progress.warmup_done,
             phase_iterations: self.config.train.warmup_iterations,
             loss: f64::NAN,
@@ -277,7 +277,7 @@ impl Trainer {
         if self.energy_cache.as_ref().is_none_or(|(k, _)| *k != key) {
             let mut ec = self.config.energy_for(phase, seq.material, seq.external);
             // HOOD's collision ramp, per sequence (counted over both phases).
-            let global = if phase == 1 { k } else { self.config.train.phase1_iterations + k };
+            let global = if phase == Phase::One { k } else { self.config.train.phase1_iterations + k };
             ec.collision.weight = self.config.train.collision_weight(global, ec.collision.weight);
             self.energy_cache = Some((key, g.energy_model(ec, dt)?));
         }
@@ -334,11 +334,11 @@ impl Trainer {
             advance(s, next, &g);
             s.steps_left -= 1;
         } else {
-            self.progress.skipped[usize::from(phase - 1)] += 1;
+            self.progress.skipped[usize::from(phase == Phase::Two)] += 1;
             s.steps_left = 0;
-            tracing::warn!(phase, iteration = k, "non-finite energy or gradient: step skipped");
+            tracing::warn!(%phase, iteration = k, "non-finite energy or gradient: step skipped");
         }
-        report.skipped_total = self.progress.skipped[usize::from(phase - 1)];
+        report.skipped_total = self.progress.skipped[usize::from(phase == Phase::Two)];
         self.progress.iteration += 1;
         Ok(report)
     }
@@ -374,9 +374,9 @@ impl Trainer {
     fn end_phase(&mut self) -> Result<(), TrainError> {
         let p = self.progress.phase;
         self.progress.sequence = None;
-        let dir = self.out.join(format!("phase{p}"));
-        if p == 1 {
-            self.progress.phase = 2;
+        let dir = self.out.join(format!("phase{}", p.number()));
+        if p == Phase::One {
+            self.progress.phase = Phase::Two;
             self.progress.iteration = 0;
             // Phase 2 starts from phase 1's weights with a fresh Adam state; OUT/phase1 is
             // saved with it, so that phase 2 can be (re)started from a copy of it exactly.
@@ -398,7 +398,7 @@ impl Trainer {
         let mut done = 0u64;
         while let Some(r) = self.step()? {
             on_step(&r);
-            if r.phase > 0 {
+            if r.phase != Phase::WarmUp {
                 done += 1;
                 if stop_after.is_some_and(|s| done >= s) {
                     break;

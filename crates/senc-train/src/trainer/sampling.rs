@@ -8,10 +8,11 @@ use rand::Rng;
 use rand_distr::{Distribution, Normal};
 use senc_energy::Material;
 use senc_geom::Vec3;
-use senc_model::{BodyState, FrameState};
+use senc_model::FrameState;
 use serde::{Deserialize, Serialize};
 
 use super::Trainer;
+use crate::config::Phase;
 use crate::error::TrainError;
 use crate::garment::Garment;
 
@@ -47,16 +48,7 @@ pub(super) fn frame_state<'a>(
     accel: Vec3,
     dt: f64,
 ) -> FrameState<'a> {
-    FrameState {
-        rest: &g.rest,
-        prev: &seq.prev,
-        curr: &seq.curr,
-        material: seq.material,
-        accel,
-        dt,
-        body: Some(BodyState { faces: g.body_faces(), curr: body_t, next: body_n }),
-        pinned: &g.pinned,
-    }
+    g.frame_state([&seq.prev, &seq.curr], [body_t, body_n], seq.material, accel, dt)
 }
 
 /// The scene's own material as an energy material.
@@ -164,7 +156,7 @@ impl Trainer {
                 self.relax_energy.resize_with(self.garments.len(), || None);
             }
             if self.relax_energy[gi].is_none() {
-                let ec = self.config.energy_for(1, scene_material(g)?, [0.0; 3]);
+                let ec = self.config.energy_for(Phase::One, scene_material(g)?, [0.0; 3]);
                 self.relax_energy[gi] = Some(g.energy_model(ec, g.scene.dt())?);
             }
             let em = self.relax_energy[gi].as_ref().expect("built above");
