@@ -69,6 +69,9 @@ pub enum MeshError {
     /// A mesh with no faces.
     #[error("the mesh has no faces")]
     Empty,
+    /// The point-query structure (parry's BVH with pseudo-normals) refused the surface.
+    #[error("the surface cannot be prepared for point queries: {0}; give a consistently oriented triangle mesh")]
+    QueryStructure(String),
     /// New positions with a different vertex count.
     #[error("got {got} positions for a mesh of {expected} vertices")]
     PositionCount {

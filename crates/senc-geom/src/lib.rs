@@ -17,6 +17,7 @@
 //! assert_eq!(mesh.topology().boundary_loops().len(), 1);
 //! ```
 
+pub mod body_query;
 pub mod closure;
 pub mod cut;
 pub mod error;
@@ -31,6 +32,7 @@ pub mod repair;
 pub mod shapes;
 pub mod topology;
 
+pub use body_query::{BodyQuery, Closest};
 pub use closure::{close_holes, Closure, HoleSelection};
 pub use error::MeshError;
 pub use mesh::TriMesh;

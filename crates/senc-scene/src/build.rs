@@ -7,8 +7,8 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 use senc_geom::Vec3;
 
-use crate::body_query::BodyQuery;
 use crate::skeleton::SkinWeights;
+use senc_geom::BodyQuery;
 
 /// Per-vertex weight lists, the editable form of [`SkinWeights`].
 pub type WeightLists = Vec<Vec<(u16, f32)>>;

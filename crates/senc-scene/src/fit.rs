@@ -20,10 +20,10 @@ use senc_geom::repair::{repair, repair_parts, RepairConfig, RepairReport, Repair
 use senc_geom::{TriMesh, Vec3};
 
 use crate::assets::{BodyAsset, GarmentAsset, NamedLoop};
-use crate::body_query::BodyQuery;
 use crate::build::{push_out, transfer_weights, PushOut, WeightLists};
 use crate::error::SceneError;
 use crate::skeleton::{skin, Pose, SkinWeights};
+use senc_geom::BodyQuery;
 
 /// Settings of [`fit`].
 #[derive(Debug, Clone, Copy, PartialEq)]

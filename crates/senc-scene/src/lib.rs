@@ -3,8 +3,7 @@
 //! Skeletons and linear blend skinning ([`skeleton`]), BVH motion capture parsing,
 //! resampling and retargeting by joint name ([`bvh`], [`motion`]), motions from files by
 //! name or path ([`clip`]), the committed body and
-//! garment assets ([`assets`]), inside/closest-point queries against the body
-//! ([`body_query`]), the garment building steps ([`build`]), the fit of garments made
+//! garment assets ([`assets`]), the garment building steps ([`build`]), the fit of garments made
 //! elsewhere, with mesh repair ([`fit`]), TOML scene configs
 //! with a train/test motion split ([`config`], [`scene`]) and a software rasteriser for
 //! preview pictures ([`raster`]).
@@ -17,7 +16,6 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod assets;
-pub mod body_query;
 pub mod build;
 pub mod bvh;
 pub mod clip;
@@ -30,11 +28,11 @@ pub mod scene;
 pub mod skeleton;
 
 pub use assets::{BodyAsset, GarmentAsset, NamedLoop};
-pub use body_query::BodyQuery;
 pub use bvh::Bvh;
 pub use clip::JointMap;
 pub use config::SceneConfig;
 pub use error::SceneError;
 pub use motion::Motion;
 pub use scene::{InitialState, Scene, Split};
+pub use senc_geom::BodyQuery;
 pub use skeleton::{skin, Bone, Pose, Skeleton, SkinWeights};

@@ -1,14 +1,12 @@
-//! The body: nearest-face queries (parry3d-f64's triangle-mesh BVH), the cubic collision
-//! penalty and friction against the moving body.
+//! The body: nearest-face queries (senc-geom's [`BodyQuery`]), the cubic collision penalty
+//! and friction against the moving body.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use nalgebra::Matrix3;
-use parry3d_f64::math::Vector as PVec;
-use parry3d_f64::query::PointQueryWithLocation;
 use rayon::prelude::*;
 
-use senc_geom::{TriMesh, Vec3};
+use senc_geom::{BodyQuery, TriMesh, Vec3};
 
 use crate::error::EnergyError;
 use crate::terms::inertia::per_vertex_eval;
@@ -60,15 +58,13 @@ impl BodyQueries {
             }
         }
         self.queries.fetch_add(1, Ordering::Relaxed);
-        let verts: Vec<PVec> = body_t.iter().map(|p| PVec::new(p.x, p.y, p.z)).collect();
-        let mesh = parry3d_f64::shape::TriMesh::new(verts, self.faces.clone())
-            .map_err(|e| EnergyError::Body(format!("cannot build the body's BVH: {e:?}")))?;
+        let query = BodyQuery::new(body_t, &self.faces)
+            .map_err(|e| EnergyError::Body(format!("cannot build the body's BVH: {e}")))?;
         Ok(x_t
             .par_iter()
             .map(|x| {
-                let (proj, (face, _)) = mesh.project_local_point_and_get_location(PVec::new(x.x, x.y, x.z), false);
-                let face = (face as usize).min(self.faces.len() - 1);
-                let q = Vec3::new(proj.point.x, proj.point.y, proj.point.z);
+                let closest = query.closest(x);
+                let (face, q) = (closest.face as usize, closest.point);
                 let [a, b, c] = self.faces[face].map(|i| body_t[i as usize]);
                 let beta = barycentric(&q, &a, &b, &c);
                 let n_t = (b - a).cross(&(c - a));
