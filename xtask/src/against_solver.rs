@@ -6,10 +6,8 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use senc_train::eval::Method;
+use senc_train::eval::{Method, Scenario};
 use senc_train::resting::against_solver;
-use senc_train::trainer::scene_material;
-use senc_train::{Phase, RunConfig};
 
 /// Arguments of `cargo xtask against-solver`.
 #[derive(clap::Args)]
@@ -37,11 +35,8 @@ pub struct Args {
 /// Runs both rollouts and prints the comparison.
 pub fn run(a: &Args) -> Result<()> {
     let m = Method::new(&a.checkpoint, a.config.as_deref())?;
-    let cfg = RunConfig::read(&m.config)?;
-    let g = m.load_garment(&cfg)?;
+    let Scenario { garment: g, material, energy, .. } = m.scenario()?;
     let motion = &g.scene.resolve_motion(&a.motion)?;
-    let material = scene_material(&g)?;
-    let energy = cfg.energy_for(Phase::Two, material, g.scene.config.external_force.acceleration);
     let model = m.load_model()?;
     let (c, _, _) = against_solver(&model, &g, motion, a.frames, &material, &energy, a.solver)?;
     if a.json {

@@ -12,10 +12,8 @@ use anyhow::{bail, Context, Result};
 use senc_geom::obj::write_obj;
 use senc_geom::Vec3;
 use senc_scene::raster::{render, Layer, BODY, GARMENT_INSIDE, GARMENT_OUTSIDE};
-use senc_train::eval::{Method, Predictor};
+use senc_train::eval::{Method, Predictor, Scenario};
 use senc_train::rollout::{network_rollout, solver_rollout, Refine};
-use senc_train::trainer::scene_material;
-use senc_train::{Phase, RunConfig};
 
 use crate::glb::{write_animated_glb, AnimatedMesh};
 
@@ -82,13 +80,11 @@ pub fn run(a: &Args) -> Result<()> {
         let asset = crate::eval::prepare_garment(g, &m.config)?;
         m = m.with_garment(&asset);
     }
-    let cfg = RunConfig::read(&m.config)?;
-    let g = m.load_garment(&cfg)?;
+    let Scenario { garment: g, material, mut energy, .. } = m.scenario()?;
     let motion = &g.scene.resolve_motion(&a.motion)?;
     let wind = a.wind.as_deref().map(parse_wind).transpose()?.unwrap_or_else(Vec3::zeros);
-    let material = scene_material(&g)?;
     let ext = Vec3::from(g.scene.config.external_force.acceleration) + wind;
-    let energy = cfg.energy_for(Phase::Two, material, ext.into());
+    energy.external_acceleration = ext.into();
     let r = match (&m.predictor, a.solver) {
         (Predictor::Solver, Some(iterations)) => solver_rollout(&g, motion, a.frames, &energy, iterations)?,
         _ => {

@@ -5,10 +5,8 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use senc_train::eval::Method;
+use senc_train::eval::{MarkdownTable, Method, Scenario};
 use senc_train::stress::stress;
-use senc_train::trainer::scene_material;
-use senc_train::{Phase, RunConfig};
 
 /// Arguments of `cargo xtask stress`.
 #[derive(clap::Args)]
@@ -34,8 +32,7 @@ pub struct Args {
 /// Runs every case and prints the table.
 pub fn run(a: &Args) -> Result<()> {
     let m = Method::new(&a.checkpoint, a.config.as_deref())?;
-    let cfg = RunConfig::read(&m.config)?;
-    let g = m.load_garment(&cfg)?;
+    let Scenario { garment: g, material, energy, .. } = m.scenario()?;
     let motion = match &a.motion {
         Some(name) => g.scene.resolve_motion(name)?,
         None => g
@@ -45,8 +42,6 @@ pub fn run(a: &Args) -> Result<()> {
             .cloned()
             .ok_or_else(|| anyhow::anyhow!("{}: no test motion; pass --motion", m.config.display()))?,
     };
-    let material = scene_material(&g)?;
-    let energy = cfg.energy_for(Phase::Two, material, g.scene.config.external_force.acceleration);
     let model = m.load_model()?;
     let rows = stress(&model, &g, &motion, a.frames, &energy, &material)?;
     if a.json {
@@ -54,21 +49,23 @@ pub fn run(a: &Args) -> Result<()> {
         return Ok(());
     }
     println!("{} on {} ({} frames per case), network alone:\n", g.name(), motion.name, a.frames);
-    println!("| case | what | frames | finite | mean E (J) | max E (J) | from skinned (cm) | max speed (cm/frame) |");
-    println!("|---|---|---:|---|---:|---:|---:|---:|");
+    let mut t = MarkdownTable::new(
+        &["case", "what", "finite", "frames", "mean E (J)", "max E (J)", "from skinned (cm)", "max speed (cm/frame)"],
+        3,
+    );
     for r in &rows {
-        println!(
-            "| {:?} | {} | {} | {} | {:.3e} | {:.3e} | {:.1} | {:.2} |",
-            r.case,
-            r.case.description(),
-            r.frames,
-            if r.finite { "yes" } else { "no" },
-            r.energy_mean_j,
-            r.energy_max_j,
-            r.departure_cm,
-            r.max_speed_cm
-        );
+        t.push(vec![
+            format!("{:?}", r.case),
+            r.case.description().to_string(),
+            (if r.finite { "yes" } else { "no" }).to_string(),
+            r.frames.to_string(),
+            format!("{:.3e}", r.energy_mean_j),
+            format!("{:.3e}", r.energy_max_j),
+            format!("{:.1}", r.departure_cm),
+            format!("{:.2}", r.max_speed_cm),
+        ]);
     }
+    print!("{}", t.render());
     for r in rows.iter().filter(|r| !r.finite) {
         println!("\n{:?}: {}", r.case, r.error.as_deref().unwrap_or(""));
     }

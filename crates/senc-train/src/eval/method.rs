@@ -6,9 +6,12 @@ use std::path::{Path, PathBuf};
 use senc_model::burn::tensor::Device;
 use senc_model::Model;
 
-use crate::config::RunConfig;
+use senc_energy::{EnergyConfig, Material};
+
+use crate::config::{Phase, RunConfig};
 use crate::error::TrainError;
 use crate::garment::Garment;
+use crate::trainer::scene_material;
 use crate::trainer::CONFIG_FILE;
 
 /// The file of a checkpoint naming the config it was trained from (relative paths of the
@@ -143,6 +146,16 @@ impl Method {
         self
     }
 
+    /// Everything a run of this method needs: its config, garment, the scene's material and
+    /// the phase-2 energy with the scene's external force.
+    pub fn scenario(&self) -> Result<Scenario, TrainError> {
+        let cfg = RunConfig::read(&self.config)?;
+        let garment = self.load_garment(&cfg)?;
+        let material = scene_material(&garment)?;
+        let energy = cfg.energy_for(Phase::Two, material, garment.scene.config.external_force.acceleration);
+        Ok(Scenario { cfg, garment, material, energy })
+    }
+
     /// The garment this method runs on: the config's first scene, or that scene with
     /// [`Method::garment`] in place of its garment.
     pub fn load_garment(&self, cfg: &RunConfig) -> Result<Garment, TrainError> {
@@ -152,6 +165,19 @@ impl Method {
             Some(asset) => Garment::load_unseen(&scene, asset, cfg.train.body_margin),
         }
     }
+}
+
+/// What [`Method::scenario`] prepares.
+#[derive(Debug)]
+pub struct Scenario {
+    /// The method's config.
+    pub cfg: RunConfig,
+    /// The garment on its scene.
+    pub garment: Garment,
+    /// The scene's material.
+    pub material: Material,
+    /// The run's phase-2 energy with the scene's material and external force.
+    pub energy: EnergyConfig,
 }
 
 /// The row label of the reference solver.

@@ -13,7 +13,7 @@ pub mod report;
 pub mod runtime;
 pub mod table1;
 
-pub use method::{first_scene, training_config, Method, Predictor, SOLVER_LABEL};
+pub use method::{first_scene, training_config, Method, Predictor, Scenario, SOLVER_LABEL};
 pub use probe::{one_step_probe, ProbeRow};
 pub use report::{write_reports, MarkdownTable};
 pub use runtime::{CurvePoint, Series};

@@ -13,9 +13,9 @@ use senc_gia::{GiaOptions, GiaWorkspace};
 use senc_scene::{BodyQuery, Motion};
 use serde::Serialize;
 
-use super::method::{Method, SOLVER_LABEL};
+use super::method::{Method, Scenario, SOLVER_LABEL};
 use super::runtime::{error_vs_runtime, CurvePoint};
-use crate::config::{Phase, RunConfig};
+use crate::config::RunConfig;
 use crate::error::TrainError;
 use crate::garment::Garment;
 use crate::metrics::{mean, mean_distance, mean_rise};
@@ -132,15 +132,13 @@ struct Setup {
 
 impl Setup {
     fn new(method: &Method) -> Result<Self, TrainError> {
-        let cfg = RunConfig::read(&method.config)?;
-        let g = method.load_garment(&cfg)?;
+        let Scenario { cfg, garment: g, energy, .. } = method.scenario()?;
         if g.scene.test.is_empty() {
             return Err(TrainError::Invalid(format!(
                 "{}: no test motions in [scene.motions] test",
                 cfg.path.display()
             )));
         }
-        let energy = cfg.energy_for(Phase::Two, scene_material(&g)?, g.scene.config.external_force.acceleration);
         let meter = VolumeMeter::new(&g, cfg.energy.self_collision.gia)?;
         Ok(Self { cfg, g, energy, meter })
     }
