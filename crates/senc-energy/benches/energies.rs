@@ -3,9 +3,9 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 
-use senc_energy::generate::{bench_scene, BenchScene};
 use senc_energy::{EnergyConfig, EnergyModel};
 use senc_geom::Vec3;
+use senc_testmesh::{bench_scene, BenchScene};
 
 fn energies(c: &mut Criterion) {
     let BenchScene { rest, body, body_next, x } = bench_scene();

@@ -4,9 +4,9 @@
 
 use std::time::Instant;
 
-use senc_energy::generate::{bench_scene, BenchScene};
 use senc_energy::{EnergyConfig, EnergyModel};
 use senc_geom::Vec3;
+use senc_testmesh::{bench_scene, BenchScene};
 
 /// Process CPU time (user + system, all threads) in seconds, from `/proc/self/stat`.
 fn cpu_seconds() -> f64 {

@@ -32,7 +32,6 @@
 pub mod config;
 pub mod error;
 pub mod fd;
-pub mod generate;
 pub mod hessian;
 pub mod material;
 pub mod model;

@@ -7,10 +7,10 @@ use nalgebra::{Matrix3, SMatrix, SymmetricEigen};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use senc_energy::generate::{sheet, sphere};
 use senc_energy::hessian::project_spd;
 use senc_energy::{assert_gradient, EnergyConfig, EnergyModel};
 use senc_geom::{TriMesh, Vec3};
+use senc_testmesh::{sheet, sphere};
 
 fn perturb(x: &[Vec3], amp: f64, seed: u64) -> Vec<Vec3> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);

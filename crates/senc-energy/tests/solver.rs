@@ -2,9 +2,9 @@
 //! each, never a NaN or infinite position, energy never above the initial guess's, and
 //! every stop has a reason.
 
-use senc_energy::generate::{sheet, sphere};
 use senc_energy::{solve, EnergyConfig, EnergyModel, SolverOptions, StopReason};
 use senc_geom::{TriMesh, Vec3};
+use senc_testmesh::{sheet, sphere};
 
 struct Scene {
     garment: TriMesh,

@@ -7,7 +7,6 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use senc_energy::assert_gradient;
-use senc_energy::generate::{sheet, sphere};
 use senc_energy::rest::RestState;
 use senc_energy::scatter::Scatter;
 use senc_energy::terms::bending::{dihedral_angle, Bending};
@@ -18,6 +17,7 @@ use senc_energy::terms::repulsion::Repulsion;
 use senc_energy::terms::stretching::Stretching;
 use senc_energy::{EnergyConfig, EnergyError, EnergyModel, Material};
 use senc_geom::{TriMesh, Vec3};
+use senc_testmesh::{sheet, sphere};
 
 /// Checks `eval`'s gradient at `x` with the shared helper.
 fn check(eval: impl Fn(&[Vec3], Option<&mut [Vec3]>) -> f64, x: &[Vec3], rel: f64) {

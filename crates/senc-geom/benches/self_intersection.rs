@@ -3,8 +3,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use senc_geom::intersect::{self_intersections, SelfIntersector};
-use senc_geom::shapes::{garment_benchmark, icosphere};
 use senc_geom::{close_holes, HoleSelection, Vec3};
+use senc_testmesh::{garment_benchmark, icosphere};
 
 fn bench(c: &mut Criterion) {
     let garment = close_holes(&garment_benchmark().unwrap(), &HoleSelection::All).unwrap();

@@ -1,4 +1,4 @@
-//! Writes every named fixture of `senc_geom::shapes::FIXTURES` as OBJ, plus `manifest.json`
+//! Writes every named fixture of `senc_testmesh::FIXTURES` as OBJ, plus `manifest.json`
 //! (name, description, sizes, coordinate checksum), into a directory, for the offline
 //! libigl scripts under `tools/` that compute the committed reference answers.
 //!
@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 
 use senc_geom::obj::write_obj;
-use senc_geom::shapes::FIXTURES;
+use senc_testmesh::FIXTURES;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);

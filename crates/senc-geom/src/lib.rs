@@ -29,7 +29,6 @@ pub mod obj;
 pub mod predicates;
 pub mod remesh;
 pub mod repair;
-pub mod shapes;
 pub mod topology;
 
 pub use body_query::{BodyQuery, Closest};
@@ -37,6 +36,15 @@ pub use closure::{close_holes, Closure, HoleSelection};
 pub use error::MeshError;
 pub use mesh::TriMesh;
 pub use topology::Topology;
+
+// The test meshes live in senc-testmesh, which depends on this crate; the unit tests here
+// compile its source as a module, with `senc_geom` naming this crate.
+#[cfg(test)]
+extern crate self as senc_geom;
+#[cfg(test)]
+#[path = "../../senc-testmesh/src/lib.rs"]
+#[allow(dead_code, unused_imports)]
+mod shapes;
 
 /// The one vector type of the geometry layers: f64 metres.
 pub type Vec3 = nalgebra::Vector3<f64>;

@@ -3,8 +3,8 @@
 
 use proptest::prelude::*;
 use senc_geom::intersect::{self_intersections, SegmentEnd, SelfIntersector};
-use senc_geom::shapes::{grid_box, jitter, merge, rigid_transform};
 use senc_geom::{TriMesh, Vec3};
+use senc_testmesh::{grid_box, jitter, merge, rigid_transform};
 
 fn mesh(p: &[[f64; 3]], f: &[[u32; 3]]) -> TriMesh {
     TriMesh::new(p.iter().map(|x| Vec3::new(x[0], x[1], x[2])).collect(), f.to_vec()).unwrap()
@@ -130,7 +130,7 @@ proptest! {
 
 #[test]
 fn output_does_not_depend_on_the_thread_count() {
-    let m = senc_geom::shapes::fixture("sleeve_torso_jitter").unwrap();
+    let m = senc_testmesh::fixture("sleeve_torso_jitter").unwrap();
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| self_intersections(&m));
     let four = rayon::ThreadPoolBuilder::new().num_threads(4).build().unwrap().install(|| self_intersections(&m));
     assert!(!one.segments.is_empty());

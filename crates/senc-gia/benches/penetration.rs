@@ -5,9 +5,9 @@
 //! the t-shirt frame with its neck left open (closed virtually inside the workspace).
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use senc_geom::shapes::garment_benchmark;
 use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
 use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, VolumeRule};
+use senc_testmesh::garment_benchmark;
 
 fn tshirt_frame() -> TriMesh {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/fixtures/garment_frames");

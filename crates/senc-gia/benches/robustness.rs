@@ -13,9 +13,9 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use senc_geom::shapes::{icosphere, tube, Caps};
 use senc_geom::{close_holes, HoleSelection, Vec3};
 use senc_gia::{GiaOptions, GiaWorkspace, GradientMode};
+use senc_testmesh::{icosphere, tube, Caps};
 use std::io::Write;
 
 fn main() {

@@ -10,9 +10,9 @@ use std::time::Instant;
 
 use senc_geom::cut::CutMesh;
 use senc_geom::intersect::SelfIntersector;
-use senc_geom::shapes::garment_benchmark;
 use senc_geom::{close_holes, HoleSelection};
 use senc_gia::{GiaOptions, GiaWorkspace};
+use senc_testmesh::garment_benchmark;
 
 fn main() {
     let mesh = match std::env::var("SENC_PROFILE_FRAME") {

@@ -2,9 +2,9 @@
 //! (reference answers committed under `tests/fixtures/`, computed offline; see its README).
 
 use senc_geom::intersect::self_intersections;
-use senc_geom::shapes::fixture;
 use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
 use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, VolumeRule};
+use senc_testmesh::fixture;
 
 fn answer(name: &str) -> serde_json::Value {
     let path = format!("{}/../../tests/fixtures/{name}.json", env!("CARGO_MANIFEST_DIR"));

@@ -4,9 +4,9 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use senc_geom::shapes::{icosphere, tube, Caps};
 use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
 use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, SizeRule, VolumeRule};
+use senc_testmesh::{icosphere, tube, Caps};
 
 fn crumple(base: &TriMesh, rng: &mut ChaCha8Rng) -> Vec<Vec3> {
     let amp: f64 = rng.random_range(0.0..0.8);

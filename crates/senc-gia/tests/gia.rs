@@ -1,9 +1,9 @@
 //! Known-answer, invariance and gradient tests of the penetration volume.
 
 use nalgebra::{Rotation3, Vector3};
-use senc_geom::shapes::{grid_box, icosphere, jitter, merge, rigid_transform};
 use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
 use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, Penetration, SizeRule, VolumeRule};
+use senc_testmesh::{grid_box, icosphere, jitter, merge, rigid_transform};
 
 fn pen(mesh: &TriMesh, opts: &GiaOptions) -> Penetration {
     let closure = close_holes(mesh, &HoleSelection::All).unwrap();
@@ -178,7 +178,7 @@ fn fixture_gradient_check(name: &str) {
 /// checked against SENC's frozen-weight volume ([`fixed_weight_volume`]), which needs every
 /// hole closed.
 fn fixture_gradient_check_with(name: &str, selection: &HoleSelection, modes: &[GradientMode]) {
-    let mesh = senc_geom::shapes::fixture(name).unwrap();
+    let mesh = senc_testmesh::fixture(name).unwrap();
     let pen_sel = |m: &TriMesh, opts: &GiaOptions| {
         let closure = close_holes(m, selection).unwrap();
         GiaWorkspace::new(&closure).penetration(&closure, opts).unwrap()
@@ -256,7 +256,7 @@ fn gradients_of_the_tangle_fixtures_match_finite_differences() {
 fn gradients_through_an_open_hole_match_finite_differences() {
     for selection in [HoleSelection::All, HoleSelection::None] {
         fixture_gradient_check_with("open_box_pierced", &selection, &[GradientMode::Exact]);
-        let mesh = senc_geom::shapes::fixture("open_box_pierced").unwrap();
+        let mesh = senc_testmesh::fixture("open_box_pierced").unwrap();
         let closure = close_holes(&mesh, &selection).unwrap();
         let opts = GiaOptions { gradient: GradientMode::FixedBarycentric, ..Default::default() };
         let p = GiaWorkspace::new(&closure).penetration(&closure, &opts).unwrap();
@@ -271,7 +271,7 @@ fn gradients_through_an_open_hole_match_finite_differences() {
 /// second box's wall inside the first (x = 0.5) towards +x shrinks the overlap by its area.
 #[test]
 fn equal_boxes_gradient_has_no_net_force_or_torque() {
-    let mesh = senc_geom::shapes::fixture("equal_boxes_half").unwrap();
+    let mesh = senc_testmesh::fixture("equal_boxes_half").unwrap();
     for mode in [GradientMode::Exact, GradientMode::FixedBarycentric] {
         let p = pen(&mesh, &GiaOptions { gradient: mode, ..Default::default() });
         assert_rigid_invariant("equal_boxes_half", &mesh, &p.gradient);

@@ -476,7 +476,7 @@ mod tests {
     /// weight list along (here the list names the vertex's input index).
     #[test]
     fn clean_carries_weights_with_the_vertices() {
-        let sheet = senc_geom::shapes::grid_sheet(1.0, 1.0, 6, 6).unwrap();
+        let sheet = senc_testmesh::grid_sheet(1.0, 1.0, 6, 6).unwrap();
         let mut positions = sheet.positions().to_vec();
         positions[3 * 7 + 3] = positions[3 * 7 + 4] - Vec3::new(1e-3, 0.0, 0.0);
         let mut faces = sheet.faces().to_vec();

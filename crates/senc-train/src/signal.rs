@@ -62,7 +62,7 @@ mod tests {
     /// (zero gravity) the signal is zero.
     #[test]
     fn a_rigid_drift_weighs_one_plus_beta_times_and_the_minimiser_stays() {
-        let rest = senc_energy::generate::sheet(6, 0.5, 1.0, 0.0, 3);
+        let rest = senc_testmesh::sheet(6, 0.5, 1.0, 0.0, 3);
         let mut config = EnergyConfig { gravity: [0.0; 3], dt: 1.0 / 30.0, ..Default::default() };
         config.self_collision.weight = 0.0;
         let em = EnergyModel::new(&rest, &config, None).unwrap();

@@ -122,7 +122,7 @@ fn sleeve_torso_has_four_holes_and_two_components() {
     assert_eq!(m.topology().n_components(), 2);
     assert_eq!(m.n_faces(), 96 * 32 * 2 + 32 * 16 * 2);
     // Closed by fans: both tubes become prisms; the signed volume is their sum.
-    let closed = crate::close_holes(&m, &crate::HoleSelection::All).unwrap();
+    let closed = senc_geom::close_holes(&m, &senc_geom::HoleSelection::All).unwrap();
     let p = SleeveTorso::default();
     let prism = |r: f64, l: f64, n: usize| 0.5 * n as f64 * r * r * (TAU / n as f64).sin() * l;
     let expect = prism(p.torso_radius, p.torso_height, 96) + prism(p.sleeve_radius, 0.27, 32);
@@ -136,7 +136,7 @@ fn garment_benchmark_is_big_open_and_closable() {
     assert_eq!(m.n_faces(), 13_152);
     assert_eq!(m.topology().boundary_loops().len(), 4);
     assert_eq!(m.topology().n_components(), 2);
-    let closed = crate::close_holes(&m, &crate::HoleSelection::All).unwrap();
+    let closed = senc_geom::close_holes(&m, &senc_geom::HoleSelection::All).unwrap();
     assert!(closed.mesh().signed_volume() > 0.0);
     // Deterministic.
     assert_eq!(garment_benchmark().unwrap().positions(), m.positions());

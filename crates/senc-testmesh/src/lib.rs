@@ -1,6 +1,8 @@
-//! Procedural, deterministic meshes for tests, fixtures and benchmarks: grid-made boxes,
-//! icospheres, tubes, tori, a tube bent through itself, a sleeve pushed through a torso, flat
-//! and folded sheets, plus jitter, rigid motion and disjoint union.
+//! senc-testmesh: procedural, deterministic meshes for senc's tests, fixtures, benchmarks
+//! and examples, and nothing else (every crate takes it as a dev-dependency): grid-made
+//! boxes, icospheres, tubes, tori, a tube bent through itself, a sleeve pushed through a
+//! torso, flat and folded sheets, plus jitter, rigid motion and disjoint union; a jittered
+//! sheet, a UV sphere and the energy benchmark's scene ([`scenes`]).
 //!
 //! Every generator returns a validated [`TriMesh`] whose faces are oriented outward (for open
 //! surfaces: consistently, with the side named in each function's doc). Lengths are metres.
@@ -15,7 +17,7 @@
 //!
 //! # Example
 //! ```
-//! use senc_geom::shapes;
+//! use senc_testmesh as shapes;
 //! let cube = shapes::grid_box([0.0; 3].into(), [1.0; 3].into(), 4).unwrap();
 //! assert_eq!(cube.n_faces(), 6 * 4 * 4 * 2);
 //! assert!((cube.signed_volume() - 1.0).abs() < 1e-12);
@@ -31,17 +33,17 @@ use nalgebra::Rotation3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::error::MeshError;
-use crate::mesh::TriMesh;
-use crate::Vec3;
+use senc_geom::{MeshError, TriMesh, Vec3};
 
 mod fixtures;
+pub mod scenes;
 #[cfg(test)]
 mod tests;
 
 #[cfg(test)]
 use fixtures::*;
 pub use fixtures::{fixture, Fixture, FIXTURES, FIXTURE_JITTER, FIXTURE_SEED};
+pub use scenes::{bench_scene, sheet, sphere, BenchScene};
 
 /// Why a shape could not be generated.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -57,7 +59,7 @@ pub enum ShapeError {
         requirement: &'static str,
     },
     /// [`fixture`] was asked for a name that is not in [`FIXTURES`].
-    #[error("unknown fixture `{name}`; the names are listed in senc_geom::shapes::FIXTURES")]
+    #[error("unknown fixture `{name}`; the names are listed in senc_testmesh::FIXTURES")]
     UnknownFixture {
         /// The name asked for.
         name: String,
