@@ -3,21 +3,16 @@
 //! motion whose body holds still (`configs/rest-skirt.toml`'s `cmu_01_01_held`) it is the
 //! resting-case check: the garment must sag a little and hang still, as the solver's does.
 
-use std::path::PathBuf;
-
+use crate::network::NetworkArgs;
 use anyhow::Result;
-use senc_train::eval::{Method, Scenario};
+use senc_train::eval::Scenario;
 use senc_train::resting::against_solver;
 
 /// Arguments of `cargo xtask against-solver`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Checkpoint directory.
-    #[arg(long)]
-    pub checkpoint: PathBuf,
-    /// Config (default: the checkpoint's own).
-    #[arg(long)]
-    pub config: Option<PathBuf>,
+    #[command(flatten)]
+    pub network: NetworkArgs,
     /// Motion: a scene motion's name or a clip file (`.bvh`, `.msgpack`).
     #[arg(long)]
     pub motion: String,
@@ -34,7 +29,7 @@ pub struct Args {
 
 /// Runs both rollouts and prints the comparison.
 pub fn run(a: &Args) -> Result<()> {
-    let m = Method::new(&a.checkpoint, a.config.as_deref())?;
+    let m = a.network.method()?;
     let Scenario { garment: g, material, energy, .. } = m.scenario()?;
     let motion = &g.scene.resolve_motion(&a.motion)?;
     let model = m.load_model()?;

@@ -40,6 +40,7 @@ mod energy;
 mod eval;
 mod fit;
 mod glb;
+mod network;
 mod preview;
 mod simulate;
 mod stress;

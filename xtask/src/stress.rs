@@ -2,21 +2,16 @@
 //! k_b ×100, the motion 3× faster, 50 m/s² wind, a start 2 cm towards the body), each
 //! case's energy, distance from the skinned garment and speed, and whether it stayed finite.
 
-use std::path::PathBuf;
-
+use crate::network::NetworkArgs;
 use anyhow::Result;
-use senc_train::eval::{MarkdownTable, Method, Scenario};
+use senc_train::eval::{MarkdownTable, Scenario};
 use senc_train::stress::stress;
 
 /// Arguments of `cargo xtask stress`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Checkpoint directory.
-    #[arg(long)]
-    pub checkpoint: PathBuf,
-    /// Config (default: the checkpoint's own).
-    #[arg(long)]
-    pub config: Option<PathBuf>,
+    #[command(flatten)]
+    pub network: NetworkArgs,
     /// Motion: a scene motion's name or a clip file (`.bvh`, `.msgpack`); default the
     /// config's first test motion.
     #[arg(long)]
@@ -31,7 +26,7 @@ pub struct Args {
 
 /// Runs every case and prints the table.
 pub fn run(a: &Args) -> Result<()> {
-    let m = Method::new(&a.checkpoint, a.config.as_deref())?;
+    let m = a.network.method()?;
     let Scenario { garment: g, material, energy, .. } = m.scenario()?;
     let motion = match &a.motion {
         Some(name) => g.scene.resolve_motion(name)?,
