@@ -103,15 +103,21 @@ impl EdgeType {
     }
 }
 
-/// Which self-collision edges to build (the paper's ablations).
+/// Which self-collision edges to build (the paper's ablations). Written in snake case
+/// (`[model] self_edges = "exclude_mesh"`); checkpoints that spell the variants in Pascal
+/// case read too.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum SelfEdges {
-    /// No self-collision edges (HOOD).
+    /// No self-collision edges (HOOD, the baseline, "w/o self-col edge").
+    #[serde(alias = "None")]
     None,
     /// Cloth pairs within the radius, pairs joined by a mesh edge excluded (SENC, default).
     #[default]
+    #[serde(alias = "ExcludeMesh")]
     ExcludeMesh,
-    /// Cloth pairs within the radius, mesh-edge pairs kept (ablation).
+    /// Cloth pairs within the radius, mesh-edge pairs kept (ablation "w. mesh edge").
+    #[serde(alias = "KeepMesh")]
     KeepMesh,
 }
 

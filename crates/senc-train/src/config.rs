@@ -226,18 +226,6 @@ impl TrainConfig {
     }
 }
 
-/// Self-collision edge mode, as written in TOML.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SelfEdgeMode {
-    /// No self-collision edges (HOOD, the baseline, "w/o self-col edge").
-    None,
-    /// SENC's edges: cloth pairs closer than the radius, mesh edges excluded.
-    ExcludeMesh,
-    /// Ablation "w. mesh edge": pairs joined by a mesh edge kept.
-    KeepMesh,
-}
-
 /// The `[model]` table: network size and graph construction.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -253,7 +241,7 @@ pub struct ModelSection {
     /// HOOD's coarse levels (0: none).
     pub coarse_levels: usize,
     /// Self-collision edges.
-    pub self_edges: SelfEdgeMode,
+    pub self_edges: SelfEdges,
     /// Self-collision edge radius, m (SENC: 0.02).
     pub self_radius: f64,
     /// Body edge radius, m (HOOD: 0.03).
@@ -275,7 +263,7 @@ impl Default for ModelSection {
             hidden_layers: 1,
             layer_norm: true,
             coarse_levels: 0,
-            self_edges: SelfEdgeMode::ExcludeMesh,
+            self_edges: SelfEdges::ExcludeMesh,
             self_radius: 0.02,
             body_radius: 0.03,
             zero_init_output: true,
@@ -300,11 +288,7 @@ impl ModelSection {
         GraphConfig {
             self_radius: self.self_radius,
             body_radius: self.body_radius,
-            self_edges: match self.self_edges {
-                SelfEdgeMode::None => SelfEdges::None,
-                SelfEdgeMode::ExcludeMesh => SelfEdges::ExcludeMesh,
-                SelfEdgeMode::KeepMesh => SelfEdges::KeepMesh,
-            },
+            self_edges: self.self_edges,
             coarse_levels: self.coarse_levels,
             elastic_features: self.elastic_features,
         }
@@ -453,12 +437,12 @@ impl RunConfig {
         let on = |w: f64| w > 0.0;
         let losses = (on(e.self_collision.weight), on(e.area_weight), on(e.repulsion.weight));
         let name = match (losses, self.model.self_edges) {
-            ((true, false, false), SelfEdgeMode::ExcludeMesh) => "SENC".to_string(),
-            ((false, false, false), SelfEdgeMode::None) => "baseline".to_string(),
-            ((true, false, false), SelfEdgeMode::None) => "w/o self-col edges".to_string(),
-            ((true, false, false), SelfEdgeMode::KeepMesh) => "w. mesh edges".to_string(),
-            ((false, true, false), SelfEdgeMode::ExcludeMesh) => "w. area loss".to_string(),
-            ((false, false, true), SelfEdgeMode::ExcludeMesh) => "repulsive".to_string(),
+            ((true, false, false), SelfEdges::ExcludeMesh) => "SENC".to_string(),
+            ((false, false, false), SelfEdges::None) => "baseline".to_string(),
+            ((true, false, false), SelfEdges::None) => "w/o self-col edges".to_string(),
+            ((true, false, false), SelfEdges::KeepMesh) => "w. mesh edges".to_string(),
+            ((false, true, false), SelfEdges::ExcludeMesh) => "w. area loss".to_string(),
+            ((false, false, true), SelfEdges::ExcludeMesh) => "repulsive".to_string(),
             (_, edges) => format!(
                 "volume {}, area {}, repulsion {}, self edges {edges:?}",
                 e.self_collision.weight, e.area_weight, e.repulsion.weight
@@ -565,7 +549,7 @@ mod tests {
         let doc = RunConfig::resolve(&top, Some(3), &sets).unwrap();
         let c = RunConfig::from_document(&doc).unwrap();
         assert_eq!((c.train.seed, c.train.phase1_iterations, c.train.phase2_iterations), (3, 7, 50));
-        assert_eq!((c.model.latent, c.model.self_edges), (8, SelfEdgeMode::None));
+        assert_eq!((c.model.latent, c.model.self_edges), (8, SelfEdges::None));
         assert_eq!(c.method_name(), "baseline, seed 3");
         assert!(c.has_scene, "the scene comes from the base");
         // the saved text parses back to the same config
@@ -591,11 +575,11 @@ mod tests {
     fn method_names_follow_the_deciding_settings() {
         let mut c = RunConfig::parse(SCENE, Path::new("a.toml")).unwrap();
         assert_eq!(c.method_name(), "SENC");
-        c.model.self_edges = SelfEdgeMode::KeepMesh;
+        c.model.self_edges = SelfEdges::KeepMesh;
         assert_eq!(c.method_name(), "w. mesh edges");
-        c.model.self_edges = SelfEdgeMode::None;
+        c.model.self_edges = SelfEdges::None;
         assert_eq!(c.method_name(), "w/o self-col edges");
-        c.model.self_edges = SelfEdgeMode::ExcludeMesh;
+        c.model.self_edges = SelfEdges::ExcludeMesh;
         c.energy.self_collision.weight = 0.0;
         c.energy.area_weight = 1.0;
         assert_eq!(c.method_name(), "w. area loss");
@@ -615,7 +599,7 @@ mod tests {
         );
         let c = RunConfig::parse(&text, Path::new("a.toml")).unwrap();
         assert_eq!(c.train.seed, 7);
-        assert_eq!(c.model.self_edges, SelfEdgeMode::None);
+        assert_eq!(c.model.self_edges, SelfEdges::None);
         assert_eq!(c.energy.self_collision.weight, 0.0);
         assert!(c.has_scene);
         assert_eq!(c.scene_files(), vec![PathBuf::from("a.toml")]);

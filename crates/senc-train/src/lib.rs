@@ -22,7 +22,7 @@ pub mod signal;
 pub mod stress;
 pub mod trainer;
 
-pub use config::{EvalConfig, ModelSection, Phase, RunConfig, SelfEdgeMode, TrainConfig};
+pub use config::{EvalConfig, ModelSection, Phase, RunConfig, TrainConfig};
 pub use error::TrainError;
 pub use garment::Garment;
 pub use trainer::{Progress, StepReport, Trainer};
