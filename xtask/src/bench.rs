@@ -127,7 +127,7 @@ fn model(o: &ModelArgs, device: &senc_model::burn::tensor::Device) -> Result<()>
     let body_n = g.body_at(motion, f + 1)?;
     let gravity = Vec3::from(g.scene.config.external_force.gravity);
     let state = g.frame_state([&prev, &curr], [&body_t, &body_n], scene_material(&g)?, gravity, g.scene.dt());
-    let graph_config = cfg.model.graph_config();
+    let graph_config = cfg.model.graph;
     println!("threads: rayon {}; load average at start: {}", rayon_threads(), load());
     let (graph, st, build) = bench_build(&state, &graph_config, reps)?;
     println!(
@@ -160,7 +160,7 @@ fn model(o: &ModelArgs, device: &senc_model::burn::tensor::Device) -> Result<()>
         println!("exported to {}/graph.json", dir.display());
     }
 
-    let own = cfg.model.model_config();
+    let own = cfg.model.network.clone();
     println!(
         "\n## network, burn on {} (median of {reps}; full HOOD {} rep(s)); load {}",
         o.device,

@@ -226,36 +226,55 @@ impl TrainConfig {
     }
 }
 
-/// The `[model]` table: network size and graph construction.
+/// The `[model]` table: the network's sizes and the graph's construction, which a
+/// checkpoint saves, and the start of the decoder. Written flat in TOML ([`ModelTable`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(from = "ModelTable", into = "ModelTable")]
 pub struct ModelSection {
-    /// Latent width (HOOD: 128). Default 32 (CPU).
-    pub latent: usize,
-    /// Message-passing blocks (HOOD: 15). Default 4 (CPU).
-    pub blocks: usize,
-    /// Hidden layers per MLP (HOOD: 2). Default 1.
-    pub hidden_layers: usize,
-    /// LayerNorm after every MLP but the decoder.
-    pub layer_norm: bool,
-    /// HOOD's coarse levels (0: none).
-    pub coarse_levels: usize,
-    /// Self-collision edges.
-    pub self_edges: SelfEdges,
-    /// Self-collision edge radius, m (SENC: 0.02).
-    pub self_radius: f64,
-    /// Body edge radius, m (HOOD: 0.03).
-    pub body_radius: f64,
+    /// The network's sizes.
+    pub network: ModelConfig,
+    /// How the graph is built.
+    pub graph: GraphConfig,
     /// Start the decoder's last layer at zero, so the untrained network takes a smooth
-    /// free-flight step (HOOD: no, random). Default true.
+    /// free-flight step (HOOD: no, random).
     pub zero_init_output: bool,
-    /// Give the nodes the cloth's elastic acceleration at `x[t]` (stretching and bending
-    /// force per unit mass): whether a vertex is held up by its neighbours, which the edge
-    /// lengths show only as tiny strains. HOOD: no. Default true.
-    pub elastic_features: bool,
 }
 
 impl Default for ModelSection {
+    fn default() -> Self {
+        ModelTable::default().into()
+    }
+}
+
+/// The `[model]` table as written, with the defaults for 2 CPU cores.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct ModelTable {
+    /// Latent width (HOOD: 128). Default 32 (CPU).
+    latent: usize,
+    /// Message-passing blocks (HOOD: 15). Default 4 (CPU).
+    blocks: usize,
+    /// Hidden layers per MLP (HOOD: 2). Default 1.
+    hidden_layers: usize,
+    /// LayerNorm after every MLP but the decoder.
+    layer_norm: bool,
+    /// HOOD's coarse levels (0: none).
+    coarse_levels: usize,
+    /// Self-collision edges.
+    self_edges: SelfEdges,
+    /// Self-collision edge radius, m (SENC: 0.02).
+    self_radius: f64,
+    /// Body edge radius, m (HOOD: 0.03).
+    body_radius: f64,
+    /// See [`ModelSection::zero_init_output`]. Default true.
+    zero_init_output: bool,
+    /// Give the nodes the cloth's elastic acceleration at `x[t]` (stretching and bending
+    /// force per unit mass): whether a vertex is held up by its neighbours, which the edge
+    /// lengths show only as tiny strains. HOOD: no. Default true.
+    elastic_features: bool,
+}
+
+impl Default for ModelTable {
     fn default() -> Self {
         Self {
             latent: 32,
@@ -272,25 +291,38 @@ impl Default for ModelSection {
     }
 }
 
-impl ModelSection {
-    /// The network sizes.
-    pub fn model_config(&self) -> ModelConfig {
-        ModelConfig::new()
-            .with_latent(self.latent)
-            .with_blocks(self.blocks)
-            .with_hidden_layers(self.hidden_layers)
-            .with_layer_norm(self.layer_norm)
-            .with_coarse_levels(self.coarse_levels)
+impl From<ModelTable> for ModelSection {
+    fn from(t: ModelTable) -> Self {
+        let network = ModelConfig::new()
+            .with_latent(t.latent)
+            .with_blocks(t.blocks)
+            .with_hidden_layers(t.hidden_layers)
+            .with_layer_norm(t.layer_norm)
+            .with_coarse_levels(t.coarse_levels);
+        let graph = GraphConfig {
+            self_radius: t.self_radius,
+            body_radius: t.body_radius,
+            self_edges: t.self_edges,
+            coarse_levels: t.coarse_levels,
+            elastic_features: t.elastic_features,
+        };
+        Self { network, graph, zero_init_output: t.zero_init_output }
     }
+}
 
-    /// The graph construction.
-    pub fn graph_config(&self) -> GraphConfig {
-        GraphConfig {
-            self_radius: self.self_radius,
-            body_radius: self.body_radius,
-            self_edges: self.self_edges,
-            coarse_levels: self.coarse_levels,
-            elastic_features: self.elastic_features,
+impl From<ModelSection> for ModelTable {
+    fn from(m: ModelSection) -> Self {
+        Self {
+            latent: m.network.latent,
+            blocks: m.network.blocks,
+            hidden_layers: m.network.hidden_layers,
+            layer_norm: m.network.layer_norm,
+            coarse_levels: m.network.coarse_levels,
+            self_edges: m.graph.self_edges,
+            self_radius: m.graph.self_radius,
+            body_radius: m.graph.body_radius,
+            zero_init_output: m.zero_init_output,
+            elastic_features: m.graph.elastic_features,
         }
     }
 }
@@ -436,7 +468,7 @@ impl RunConfig {
         let e = &self.energy;
         let on = |w: f64| w > 0.0;
         let losses = (on(e.self_collision.weight), on(e.area_weight), on(e.repulsion.weight));
-        let name = match (losses, self.model.self_edges) {
+        let name = match (losses, self.model.graph.self_edges) {
             ((true, false, false), SelfEdges::ExcludeMesh) => "SENC".to_string(),
             ((false, false, false), SelfEdges::None) => "baseline".to_string(),
             ((true, false, false), SelfEdges::None) => "w/o self-col edges".to_string(),
@@ -503,7 +535,7 @@ impl RunConfig {
                 return bad(format!("[train] collision_weight_start = {w}: give a finite weight >= 0 (HOOD: 5e3)"));
             }
         }
-        if self.model.latent == 0 || self.model.blocks == 0 {
+        if self.model.network.latent == 0 || self.model.network.blocks == 0 {
             return bad("[model] latent and blocks must be >= 1".into());
         }
         self.energy.validate().map_err(|e| TrainError::Config { path: self.path.clone(), message: e.to_string() })?;
@@ -549,7 +581,7 @@ mod tests {
         let doc = RunConfig::resolve(&top, Some(3), &sets).unwrap();
         let c = RunConfig::from_document(&doc).unwrap();
         assert_eq!((c.train.seed, c.train.phase1_iterations, c.train.phase2_iterations), (3, 7, 50));
-        assert_eq!((c.model.latent, c.model.self_edges), (8, SelfEdges::None));
+        assert_eq!((c.model.network.latent, c.model.graph.self_edges), (8, SelfEdges::None));
         assert_eq!(c.method_name(), "baseline, seed 3");
         assert!(c.has_scene, "the scene comes from the base");
         // the saved text parses back to the same config
@@ -575,11 +607,11 @@ mod tests {
     fn method_names_follow_the_deciding_settings() {
         let mut c = RunConfig::parse(SCENE, Path::new("a.toml")).unwrap();
         assert_eq!(c.method_name(), "SENC");
-        c.model.self_edges = SelfEdges::KeepMesh;
+        c.model.graph.self_edges = SelfEdges::KeepMesh;
         assert_eq!(c.method_name(), "w. mesh edges");
-        c.model.self_edges = SelfEdges::None;
+        c.model.graph.self_edges = SelfEdges::None;
         assert_eq!(c.method_name(), "w/o self-col edges");
-        c.model.self_edges = SelfEdges::ExcludeMesh;
+        c.model.graph.self_edges = SelfEdges::ExcludeMesh;
         c.energy.self_collision.weight = 0.0;
         c.energy.area_weight = 1.0;
         assert_eq!(c.method_name(), "w. area loss");
@@ -599,7 +631,7 @@ mod tests {
         );
         let c = RunConfig::parse(&text, Path::new("a.toml")).unwrap();
         assert_eq!(c.train.seed, 7);
-        assert_eq!(c.model.self_edges, SelfEdges::None);
+        assert_eq!(c.model.graph.self_edges, SelfEdges::None);
         assert_eq!(c.energy.self_collision.weight, 0.0);
         assert!(c.has_scene);
         assert_eq!(c.scene_files(), vec![PathBuf::from("a.toml")]);

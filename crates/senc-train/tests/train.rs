@@ -328,7 +328,7 @@ fn pinned_waist_follows_the_body_and_holds_the_skirt() {
     let frames = 8;
     let energy = cfg.energy_for(Phase::One, material, [0.0; 3]);
     let solver = solver_rollout(&g, motion, frames, &energy, 6).unwrap();
-    let model = Model::new(cfg.model.model_config(), cfg.model.graph_config(), 3, &Device::flex());
+    let model = Model::new(cfg.model.network.clone(), cfg.model.graph, 3, &Device::flex());
     let net = rollout(&model, &g, motion, frames, senc_geom::Vec3::zeros(), &material).unwrap();
     for f in 0..=frames {
         let skinned = g.skinned_at(motion, f).unwrap();
@@ -361,7 +361,7 @@ fn refined_rollout_never_raises_the_energy() {
     let g = Garment::load(&senc_train::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
     let motion = &g.scene.test[0];
     let material = scene_material(&g).unwrap();
-    let model = Model::new(cfg.model.model_config(), cfg.model.graph_config(), 7, &Device::flex());
+    let model = Model::new(cfg.model.network.clone(), cfg.model.graph, 7, &Device::flex());
     let frames = 6;
     let ext = senc_geom::Vec3::zeros();
     let plain = rollout(&model, &g, motion, frames, ext, &material).unwrap();
@@ -486,12 +486,12 @@ fn stress_cases_report_every_case() {
     use senc_train::stress::{stress, towards_body, StressCase};
     use senc_train::trainer::scene_material;
     let cfg = senc_train::RunConfig::read(root().join("configs/smoke.toml")).unwrap();
-    assert!(cfg.model.graph_config().elastic_features);
+    assert!(cfg.model.graph.elastic_features);
     let g = Garment::load(&senc_train::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
     let motion = &g.scene.test[0];
     let material = scene_material(&g).unwrap();
     let energy = cfg.energy_for(Phase::Two, material, [0.0; 3]);
-    let model = Model::new(cfg.model.model_config(), cfg.model.graph_config(), 3, &Device::flex());
+    let model = Model::new(cfg.model.network.clone(), cfg.model.graph, 3, &Device::flex());
     let rows = stress(&model, &g, motion, 4, &energy, &material).unwrap();
     assert_eq!(rows.iter().map(|r| r.case).collect::<Vec<_>>(), StressCase::ALL.to_vec());
     for r in &rows {

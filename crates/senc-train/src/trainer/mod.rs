@@ -78,8 +78,7 @@ impl Trainer {
         let config_text = RunConfig::resolve(config_path, None, &[])?.to_toml();
         let garments = Self::load_garments(&config)?;
         let device = Device::flex().autodiff();
-        let mut model =
-            Model::new(config.model.model_config(), config.model.graph_config(), config.train.seed, &device);
+        let mut model = Model::new(config.model.network.clone(), config.model.graph, config.train.seed, &device);
         if config.model.zero_init_output {
             model.network = model.network.with_zero_output();
         }
