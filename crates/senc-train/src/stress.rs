@@ -173,8 +173,8 @@ fn measure(
     let em_first = g.energy_model(energy.clone(), g.scene.config.first_step_dt)?;
     let (mut energies, mut departure, mut speed) = (Vec::new(), Vec::new(), Vec::new());
     for f in 1..r.cloth.len() {
-        // The state each step started from, as the rollout saw it: at rest before the long
-        // first step, and its velocity rescaled to 1/fps after it.
+        // The state each step started from, as the rollout saw it: at rest before the first
+        // step (of `first_step_dt`), and its velocity rescaled to 1/fps after it.
         let mut prev = r.cloth[f.saturating_sub(2)].clone();
         if f == 2 {
             crate::garment::rescale_velocity(&mut prev, &r.cloth[1], g.scene.dt() / g.scene.config.first_step_dt);
