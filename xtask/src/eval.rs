@@ -123,10 +123,11 @@ pub fn prepare_garment(garment: &Path, config: &Path) -> Result<PathBuf> {
 fn print_row(row: &Row) {
     let rise = row.rise_30_cm.map_or("–".to_string(), |r| format!("{r:.1} cm"));
     println!(
-        "{} {}: V {:.3} cm³, L_self-col {:.3e}, >0.1 {:.1}%, >0.01 {:.1}%, body {:.2}%, from skinned {:.1} cm, \
+        "{} {} {}: V {:.3} cm³, L_self-col {:.3e}, >0.1 {:.1}%, >0.01 {:.1}%, body {:.2}%, from skinned {:.1} cm, \
          rise after {RISE_FRAME} frames {rise}, {:.1} FPS",
         row.method,
         row.garment,
+        row.motion,
         row.volume_cm3,
         row.l_selfcol,
         row.pct_above_0_1,
@@ -163,18 +164,20 @@ pub fn run(args: Args) -> Result<()> {
             m = m.with_garment(asset);
         }
         eprintln!("evaluating {} on {}", m.label, m.config.display());
-        let (row, c) = evaluate(&m).with_context(|| format!("evaluating {}", ck.display()))?;
-        print_row(&row);
-        if m.refine() > 0 {
-            println!(
-                "  network answer rejected (refined from the inertial target) in {:.1}% of frames",
-                row.rejected_pct
-            );
+        let (method_rows, c) = evaluate(&m).with_context(|| format!("evaluating {}", ck.display()))?;
+        for row in &method_rows {
+            print_row(row);
+            if m.refine() > 0 {
+                println!(
+                    "  network answer rejected (refined from the inertial target) in {:.1}% of frames",
+                    row.rejected_pct
+                );
+            }
         }
         if !solver_for.iter().any(|s| s.config == m.config && s.garment == m.garment) {
             solver_for.push(m.clone());
         }
-        rows.push(row);
+        rows.extend(method_rows);
         // Solver points are per garment; keep them once per garment.
         for p in c {
             if p.series == Series::Solver && curve.iter().any(|q| q.method == p.method && q.garment == p.garment) {
@@ -185,9 +188,10 @@ pub fn run(args: Args) -> Result<()> {
     }
     for m in &solver_for {
         eprintln!("evaluating the reference solver on {}", m.config.display());
-        let row = evaluate_solver(m).with_context(|| format!("the reference solver on {}", m.config.display()))?;
-        print_row(&row);
-        rows.push(row);
+        let solver_rows =
+            evaluate_solver(m).with_context(|| format!("the reference solver on {}", m.config.display()))?;
+        solver_rows.iter().for_each(print_row);
+        rows.extend(solver_rows);
     }
     let command = std::env::args().skip(1).collect::<Vec<_>>().join(" ");
     write_reports(&args.out, &rows, &curve, &format!("cargo xtask {command}"))?;

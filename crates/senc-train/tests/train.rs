@@ -85,7 +85,10 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
 
     // Evaluation of the tiny model writes every report.
     let m = Method::new(&a.join("phase2"), None).unwrap();
-    let (row, curve) = evaluate(&m).unwrap();
+    let (rows, curve) = evaluate(&m).unwrap();
+    let motions: Vec<&str> = rows.iter().map(|r| r.motion.as_str()).collect();
+    assert_eq!(motions, ["boxing_toes", "mocapbank_150"], "one row per test motion of smoke.toml");
+    let row = &rows[0];
     assert_eq!(row.frames, 4);
     assert!(row.volume_cm3.is_finite() && row.volume_cm3 >= 0.0);
     assert!(row.fps > 0.0);
@@ -103,14 +106,14 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     assert_eq!(row.method, "SENC, seed 1");
     assert_eq!(row.rise_30_cm, None, "4 frames are fewer than 30");
     // The reference solver's row on the same garment and motions.
-    let solver = evaluate_solver(&m).unwrap();
+    let solver = evaluate_solver(&m).unwrap().remove(0);
     assert_eq!(
         (solver.method.as_str(), solver.frames, solver.garment.as_str()),
         ("reference solver", 4, row.garment.as_str())
     );
     assert!(solver.fps > 0.0 && solver.volume_cm3.is_finite() && solver.departure_cm.is_finite());
     let out = d.join("reports");
-    write_reports(&out, &[row, solver], &curve, "test").unwrap();
+    write_reports(&out, &[row.clone(), solver], &curve, "test").unwrap();
     for f in ["table1.md", "table1.csv", "table1.json", "runtime.md", "runtime.csv", "runtime.svg"] {
         assert!(out.join(f).exists(), "{f}");
     }
@@ -121,7 +124,10 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     }
     let csv = std::fs::read_to_string(out.join("table1.csv")).unwrap();
     assert_eq!(csv.lines().count(), 3, "{csv}");
-    assert!(csv.starts_with("method,garment,frames,volume_cm3,") && csv.contains("\nreference solver,"), "{csv}");
+    assert!(
+        csv.starts_with("method,garment,motion,frames,volume_cm3,") && csv.contains("\nreference solver,"),
+        "{csv}"
+    );
     let md = std::fs::read_to_string(out.join("table1.md")).unwrap();
     assert!(md.contains("| SENC, seed 1 |") && md.contains("| reference solver |"), "{md}");
     let _ = std::fs::remove_dir_all(&d);

@@ -70,6 +70,7 @@ pub fn table1_markdown(rows: &[Row]) -> String {
         &[
             "method",
             "garment",
+            "motion",
             "frames",
             "V (cm³)",
             "L_self-col (×10⁻³)",
@@ -80,12 +81,13 @@ pub fn table1_markdown(rows: &[Row]) -> String {
             rise.as_str(),
             "FPS",
         ],
-        2,
+        3,
     );
     for r in rows {
         t.push(vec![
             r.method.clone(),
             r.garment.clone(),
+            r.motion.clone(),
             r.frames.to_string(),
             format!("{:.3}", r.volume_cm3),
             format!("{:.3}", r.l_selfcol * 1e3),

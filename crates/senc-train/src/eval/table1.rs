@@ -25,13 +25,15 @@ use crate::trainer::scene_material;
 /// The frame after which [`Row::rise_30_cm`] is measured.
 pub const RISE_FRAME: usize = 30;
 
-/// Table-1 metrics of one method on one garment.
+/// Table-1 metrics of one method on one garment and test motion.
 #[derive(Debug, Clone, Serialize)]
 pub struct Row {
     /// Method label.
     pub method: String,
     /// Garment name.
     pub garment: String,
+    /// Test motion name.
+    pub motion: String,
     /// Test frames evaluated.
     pub frames: usize,
     /// Mean penetration volume, cm³.
@@ -50,9 +52,8 @@ pub struct Row {
     /// body, and its volumes describe no plausible garment.
     pub departure_cm: f64,
     /// Mean vertical displacement of the cloth vertices from the skinned garment at frame
-    /// [`RISE_FRAME`], cm, averaged over the test motions (positive: above it). A garment
-    /// hanging on the body sags a little (negative); one blown off it rises. `None` when the
-    /// rollouts are shorter.
+    /// [`RISE_FRAME`], cm (positive: above it). A garment hanging on the body sags a little
+    /// (negative); one blown off it rises. `None` when the rollout is shorter.
     pub rise_30_cm: Option<f64>,
     /// Frames per second (graph + network, and the refinement for a refined method; the
     /// solver for the reference solver).
@@ -85,29 +86,33 @@ impl VolumeMeter {
     }
 }
 
-/// The Table-1 row of rollouts `rollouts` (one per test motion, in `g.scene.test` order).
-fn row(label: &str, g: &Garment, rollouts: &[Rollout], meter: &mut VolumeMeter) -> Result<Row, TrainError> {
-    let (mut vols, mut body_pct, mut departure, mut rise) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for (motion, r) in g.scene.test.iter().zip(rollouts) {
-        for (f, x) in r.cloth.iter().enumerate().skip(1) {
-            vols.push(meter.volume(x)?);
-            let body = g.scene.body_at(motion, f)?;
-            let q = BodyQuery::new(&body, &g.scene.body.faces)?;
-            body_pct.push(100.0 * q.inside(x).len() as f64 / x.len() as f64);
-            let skinned = g.skinned_at(motion, f)?;
-            departure.push(mean_distance(x, &skinned));
-            if f == RISE_FRAME {
-                rise.push(mean_rise(x, &skinned));
-            }
+/// The Table-1 rows of rollouts `rollouts` (one per test motion, in `g.scene.test` order),
+/// one row per motion.
+fn rows(label: &str, g: &Garment, rollouts: &[Rollout], meter: &mut VolumeMeter) -> Result<Vec<Row>, TrainError> {
+    g.scene.test.iter().zip(rollouts).map(|(motion, r)| row(label, g, motion, r, meter)).collect()
+}
+
+/// The Table-1 row of the rollout `r` of `motion`.
+fn row(label: &str, g: &Garment, motion: &Motion, r: &Rollout, meter: &mut VolumeMeter) -> Result<Row, TrainError> {
+    let (mut vols, mut body_pct, mut departure, mut rise) = (Vec::new(), Vec::new(), Vec::new(), None);
+    for (f, x) in r.cloth.iter().enumerate().skip(1) {
+        vols.push(meter.volume(x)?);
+        let body = g.scene.body_at(motion, f)?;
+        let q = BodyQuery::new(&body, &g.scene.body.faces)?;
+        body_pct.push(100.0 * q.inside(x).len() as f64 / x.len() as f64);
+        let skinned = g.skinned_at(motion, f)?;
+        departure.push(mean_distance(x, &skinned));
+        if f == RISE_FRAME {
+            rise = Some(mean_rise(x, &skinned) * 100.0);
         }
     }
-    let (secs, steps) = rollouts.iter().fold((0.0, 0), |(s, n), r| (s + r.infer_seconds, n + r.steps));
-    let rejected = rollouts.iter().map(|r| r.refined.iter().filter(|f| f.rejected).count()).sum::<usize>();
+    let rejected = r.refined.iter().filter(|f| f.rejected).count();
     let ls: Vec<f64> = vols.iter().map(|v| 100.0 * 6.0 * v).collect();
     let share = |t: f64| 100.0 * ls.iter().filter(|&&l| l > t).count() as f64 / ls.len().max(1) as f64;
     Ok(Row {
         method: label.to_string(),
         garment: g.name().to_string(),
+        motion: motion.name.clone(),
         frames: vols.len(),
         volume_cm3: mean(&vols) * 1e6,
         l_selfcol: mean(&ls),
@@ -115,9 +120,9 @@ fn row(label: &str, g: &Garment, rollouts: &[Rollout], meter: &mut VolumeMeter) 
         pct_above_0_01: share(0.01),
         body_penetration_pct: mean(&body_pct),
         departure_cm: mean(&departure) * 100.0,
-        rise_30_cm: (rise.len() == rollouts.len()).then(|| mean(&rise) * 100.0),
-        fps: if secs > 0.0 { steps as f64 / secs } else { f64::NAN },
-        rejected_pct: 100.0 * rejected as f64 / steps.max(1) as f64,
+        rise_30_cm: rise,
+        fps: if r.infer_seconds > 0.0 { r.steps as f64 / r.infer_seconds } else { f64::NAN },
+        rejected_pct: 100.0 * rejected as f64 / r.steps.max(1) as f64,
     })
 }
 
@@ -149,8 +154,9 @@ impl Setup {
     }
 }
 
-/// Evaluates one method: its Table-1 row and the network's error-against-run-time points.
-pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
+/// Evaluates one method: its Table-1 rows (one per test motion) and the network's
+/// error-against-run-time points (on the first test motion).
+pub fn evaluate(method: &Method) -> Result<(Vec<Row>, Vec<CurvePoint>), TrainError> {
     let mut s = Setup::new(method)?;
     let model = method.load_model()?;
     let material = scene_material(&s.g)?;
@@ -159,21 +165,21 @@ pub fn evaluate(method: &Method) -> Result<(Row, Vec<CurvePoint>), TrainError> {
         let refine = Some(Refine { energy: &s.energy, iterations: method.refine() });
         network_rollout(&model, &s.g, motion, s.cfg.eval.frames, ext, &material, refine)
     })?;
-    let row = row(&method.label, &s.g, &rollouts, &mut s.meter)?;
+    let rows = rows(&method.label, &s.g, &rollouts, &mut s.meter)?;
     let curve = match method.curve {
         true => error_vs_runtime(method, &s.cfg, &s.g, &model, &rollouts[0], &mut s.meter)?,
         false => Vec::new(),
     };
-    Ok((row, curve))
+    Ok((rows, curve))
 }
 
-/// The reference solver's Table-1 row on `method`'s garment and config (its checkpoint is
+/// The reference solver's Table-1 rows (one per test motion) on `method`'s garment and config (its checkpoint is
 /// not used): each frame solved by Newton from the solver's own previous frames, at most
 /// `[eval] converged_iterations` iterations (the converged reference of the
 /// error-against-run-time curve), on the phase-2 energy.
-pub fn evaluate_solver(method: &Method) -> Result<Row, TrainError> {
+pub fn evaluate_solver(method: &Method) -> Result<Vec<Row>, TrainError> {
     let mut s = Setup::new(method)?;
     let (frames, iterations) = (s.cfg.eval.frames, s.cfg.eval.converged_iterations);
     let rollouts = s.roll(|motion| solver_rollout(&s.g, motion, frames, &s.energy, iterations))?;
-    row(SOLVER_LABEL, &s.g, &rollouts, &mut s.meter)
+    rows(SOLVER_LABEL, &s.g, &rollouts, &mut s.meter)
 }
