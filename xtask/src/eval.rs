@@ -1,4 +1,4 @@
-//! `cargo xtask eval --checkpoint DIR [--compare DIR ...] [--config C.toml ...] [--garment G]
+//! `cargo xtask eval --checkpoint DIR [--compare DIR ...] [--config C.toml ...] [--garment G ...]
 //! [--refine N,...] [--out reports]`: Table 1 (penetration volume, L_self-col, % frames above
 //! thresholds, body penetration, distance from and rise above the skinned garment, FPS), with
 //! the reference solver as a row per garment, and the error against run time (reference
@@ -6,12 +6,15 @@
 //!
 //! With several `--config` files, each checkpoint is evaluated with the one whose garment is
 //! the garment it was trained on, so one table holds t-shirt and skirt rows. `--garment`
-//! swaps in a garment the models never saw (an OBJ is fitted to the body first).
+//! swaps in garments the models never saw (the paper's Table 3), one row each: an OBJ is
+//! fitted to the body first (`X.obj#NAME`, `#largest` and `#each` select components as
+//! `fit` does).
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
+use senc_scene::fit::{describe, fit_obj, FitOptions, Select};
 use senc_train::eval::{
     evaluate, evaluate_solver, first_scene, one_step_probe, write_reports, CurvePoint, MarkdownTable, Method, Row,
     Series, RISE_FRAME,
@@ -32,10 +35,11 @@ pub struct Args {
     /// rows in one table).
     #[arg(long, num_args = 1..)]
     pub config: Vec<PathBuf>,
-    /// A garment the models never saw: an OBJ in metres (fitted to the body first, as
-    /// `cargo xtask fit` does) or a fitted .msgpack asset. Every loop but `neck` is closed.
-    #[arg(long)]
-    pub garment: Option<PathBuf>,
+    /// Garments the models never saw, one row each: OBJs in metres (fitted to the body
+    /// first, as `cargo xtask fit` does, with its `X.obj#WHICH` forms) or fitted .msgpack
+    /// assets. Every loop but `neck` is closed.
+    #[arg(long, num_args = 1..)]
+    pub garment: Vec<PathBuf>,
     /// Also roll each checkpoint out with every frame refined by N Newton iterations of
     /// the reference solver (phase-2 energy), one row per value: `--refine 0,2` gives the
     /// network alone and refined by 2. Default 0.
@@ -96,23 +100,28 @@ fn pick_config(checkpoint: &Path, configs: &[PathBuf]) -> Result<Option<PathBuf>
     }
 }
 
-/// A garment asset for `--garment`: a `.msgpack` asset as is, an OBJ fitted to the body of
-/// `config`'s scene first (written to the system's temporary directory).
-pub fn prepare_garment(garment: &Path, config: &Path) -> Result<PathBuf> {
-    match garment.extension().and_then(|e| e.to_str()) {
-        Some("msgpack") => Ok(garment.to_path_buf()),
+/// The garment assets of one `--garment` argument: a `.msgpack` asset as is, or an OBJ
+/// (`X.obj#WHICH` as in `fit`) fitted to the body of `config`'s scene first (written to the
+/// system's temporary directory); `#each` gives one asset per component.
+pub fn prepare_garments(garment: &Path, config: &Path) -> Result<Vec<PathBuf>> {
+    let (file, select) = Select::from_arg(garment);
+    match file.extension().and_then(|e| e.to_str()) {
+        Some("msgpack") => Ok(vec![file]),
         Some("obj") => {
             let cfg = RunConfig::read(config)?;
             let scene = senc_scene::SceneConfig::read(first_scene(&cfg)?)?;
             let body = senc_scene::BodyAsset::load(&scene.body)?;
-            let data = senc_geom::obj::ObjData::read(garment)?;
-            let name = garment.file_stem().and_then(|s| s.to_str()).unwrap_or("garment").to_string();
-            let (asset, rep) = crate::fit::fit(&name, data.positions, data.faces, &body, None, true, 5e-3)
+            let fitted = fit_obj(&file, &select, 1.0, &body, &FitOptions::default())
                 .with_context(|| format!("fitting {} to the body", garment.display()))?;
-            let out = std::env::temp_dir().join(format!("senc-fitted-{name}.msgpack"));
-            senc_scene::assets::write_msgpack(&out, &asset)?;
-            eprintln!("fitted {}", crate::fit::describe(&asset, &rep));
-            Ok(out)
+            fitted
+                .iter()
+                .map(|(asset, rep)| {
+                    let out = std::env::temp_dir().join(format!("senc-fitted-{}.msgpack", asset.name));
+                    senc_scene::assets::write_msgpack(&out, asset)?;
+                    eprintln!("fitted {}", describe(asset, rep));
+                    Ok(out)
+                })
+                .collect()
         }
         _ => {
             bail!("--garment {}: give an OBJ (fitted to the body first) or a fitted .msgpack asset", garment.display())
@@ -145,45 +154,55 @@ pub fn run(args: Args) -> Result<()> {
     let mut curve: Vec<CurvePoint> = Vec::new();
     let refine = if args.refine.is_empty() { vec![0] } else { args.refine.clone() };
     let mut curve_done = HashSet::new();
-    let mut fitted: HashMap<PathBuf, PathBuf> = HashMap::new();
+    let mut fitted: HashMap<(PathBuf, PathBuf), Vec<PathBuf>> = HashMap::new();
     // The solver's row once per (config, garment), after the networks on it.
     let mut solver_for: Vec<Method> = Vec::new();
     let checkpoints = std::iter::once(&args.checkpoint).chain(&args.compare);
     for (ck, &iterations) in checkpoints.flat_map(|c| refine.iter().map(move |r| (c, r))) {
         let config = pick_config(ck, &args.config)?;
-        let mut m = Method::new(ck, config.as_deref())?.with_refine(iterations);
-        // A checkpoint's curve once: from its first row (with `--refine 0,2`, the network
-        // alone, whose points include the refined answers on the same states).
-        m.curve = curve_done.insert(ck.to_path_buf());
-        if let Some(g) = &args.garment {
-            // Fitted once per config, not once per `--refine` row.
-            let asset = match fitted.get(&m.config) {
-                Some(a) => a,
-                None => fitted.entry(m.config.clone()).or_insert(prepare_garment(g, &m.config)?),
-            };
-            m = m.with_garment(asset);
-        }
-        eprintln!("evaluating {} on {}", m.label, m.config.display());
-        let (method_rows, c) = evaluate(&m).with_context(|| format!("evaluating {}", ck.display()))?;
-        for row in &method_rows {
-            print_row(row);
-            if m.refine() > 0 {
-                println!(
-                    "  network answer rejected (refined from the inertial target) in {:.1}% of frames",
-                    row.rejected_pct
-                );
+        let base = Method::new(ck, config.as_deref())?.with_refine(iterations);
+        // The scene's own garment, or every `--garment` asset, each fitted once per config.
+        let mut assets: Vec<Option<PathBuf>> = Vec::new();
+        for g in &args.garment {
+            let key = (g.clone(), base.config.clone());
+            if !fitted.contains_key(&key) {
+                fitted.insert(key.clone(), prepare_garments(g, &base.config)?);
             }
+            assets.extend(fitted[&key].iter().cloned().map(Some));
         }
-        if !solver_for.iter().any(|s| s.config == m.config && s.garment == m.garment) {
-            solver_for.push(m.clone());
+        if assets.is_empty() {
+            assets.push(None);
         }
-        rows.extend(method_rows);
-        // Solver points are per garment; keep them once per garment.
-        for p in c {
-            if p.series == Series::Solver && curve.iter().any(|q| q.method == p.method && q.garment == p.garment) {
-                continue;
+        for asset in assets {
+            let mut m = base.clone();
+            if let Some(a) = &asset {
+                m = m.with_garment(a);
             }
-            curve.push(p);
+            // A checkpoint's curve once per garment: from its first row (with `--refine 0,2`,
+            // the network alone, whose points include the refined answers on the same states).
+            m.curve = curve_done.insert((ck.to_path_buf(), asset));
+            eprintln!("evaluating {} on {}", m.label, m.config.display());
+            let (method_rows, c) = evaluate(&m).with_context(|| format!("evaluating {}", ck.display()))?;
+            for row in &method_rows {
+                print_row(row);
+                if m.refine() > 0 {
+                    println!(
+                        "  network answer rejected (refined from the inertial target) in {:.1}% of frames",
+                        row.rejected_pct
+                    );
+                }
+            }
+            if !solver_for.iter().any(|s| s.config == m.config && s.garment == m.garment) {
+                solver_for.push(m.clone());
+            }
+            rows.extend(method_rows);
+            // Solver points are per garment; keep them once per garment.
+            for p in c {
+                if p.series == Series::Solver && curve.iter().any(|q| q.method == p.method && q.garment == p.garment) {
+                    continue;
+                }
+                curve.push(p);
+            }
         }
     }
     for m in &solver_for {

@@ -6,26 +6,10 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use senc_geom::Vec3;
-use senc_scene::build::WeightLists;
-use senc_scene::fit::{fit_obj, FitOptions, FitReport, Select};
-use senc_scene::{BodyAsset, GarmentAsset};
+use senc_scene::fit::{fit_obj, FitOptions, Select};
+use senc_scene::BodyAsset;
 
 pub use senc_scene::fit::describe;
-
-/// Fits one garment (for `eval --garment`, `simulate --garment`).
-pub fn fit(
-    name: &str,
-    positions: Vec<Vec3>,
-    faces: Vec<[u32; 3]>,
-    body: &BodyAsset,
-    weights: Option<WeightLists>,
-    align: bool,
-    margin: f64,
-) -> Result<(GarmentAsset, FitReport)> {
-    let opts = FitOptions { align, margin, ..FitOptions::default() };
-    Ok(senc_scene::fit::fit(name, &positions, &faces, body, weights, &opts)?)
-}
 
 /// Arguments of `cargo xtask fit`.
 #[derive(clap::Args)]

@@ -44,8 +44,8 @@ pub struct Args {
     /// Frames to simulate.
     #[arg(long, default_value_t = 90)]
     pub frames: usize,
-    /// A garment the model never saw: an OBJ in metres (fitted to the body first) or a
-    /// fitted .msgpack asset.
+    /// A garment the model never saw: an OBJ in metres (fitted to the body first; in a file
+    /// of several garments `X.obj#NAME` or `#largest` picks one) or a fitted .msgpack asset.
     #[arg(long)]
     pub garment: Option<PathBuf>,
     /// Preview PNGs (front, side, back) spread evenly over the sequence.
@@ -77,8 +77,11 @@ pub fn run(a: &Args) -> Result<()> {
         _ => bail!("give --checkpoint DIR, or --solver N with --config FILE"),
     };
     if let Some(g) = a.garment.as_deref() {
-        let asset = crate::eval::prepare_garment(g, &m.config)?;
-        m = m.with_garment(&asset);
+        let assets = crate::eval::prepare_garments(g, &m.config)?;
+        let [asset] = assets.as_slice() else {
+            bail!("--garment {}: {} garments; pick one with X.obj#NAME or #largest", g.display(), assets.len())
+        };
+        m = m.with_garment(asset);
     }
     let Scenario { garment: g, material, mut energy, .. } = m.scenario()?;
     let motion = &g.scene.resolve_motion(&a.motion)?;
