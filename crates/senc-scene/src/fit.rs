@@ -165,32 +165,50 @@ fn body_z_centre(points: &[Vec3], y: f64, half_x: f64) -> Option<f64> {
     Some(0.5 * (lo + hi))
 }
 
-/// Rigid alignment: the highest boundary loop's centroid goes 3.5 cm below the body's neck
-/// joint, x is centred, and z is chosen so that chest cross-sections 10-25 cm below the neck
-/// share their centre with the body's.
+/// Mean horizontal distance of a boundary loop's vertices from its centroid above which the
+/// loop is a waist (a bottom: skirt, trousers) rather than a neck, m. The registry garments'
+/// necks are 5-7 cm, their waists 13-14 cm.
+pub const WAIST_RADIUS: f64 = 0.10;
+
+/// Rigid alignment by the highest boundary loop, x centred. A top's highest loop (narrower
+/// than [`WAIST_RADIUS`]: a neck) goes 3.5 cm below the body's neck joint, and chest
+/// cross-sections 10-25 cm below it share their z centre with the body's. A bottom's (a
+/// waist) goes to the height of the lower-back joint, and hip cross-sections 5-20 cm below
+/// it share their z centre with the body's.
 pub fn align(positions: &mut [Vec3], mesh: &TriMesh, body: &BodyAsset) -> Result<(), SceneError> {
-    let neck = bone_head(body, "Neck")?;
     let loops = loops_of(mesh);
-    let top = loops.iter().max_by(|a, b| a.1.y.total_cmp(&b.1.y)).map(|l| l.1);
-    let top = match top {
-        Some(c) => c,
-        None => {
-            return Err(SceneError::Invalid(
-                "the garment has no boundary loop to align by (a closed surface is no garment); align it yourself and fit with --no-align".into(),
-            ))
-        }
+    let Some((top_loop, top)) = loops.iter().max_by(|a, b| a.1.y.total_cmp(&b.1.y)) else {
+        return Err(SceneError::Invalid(
+            "the garment has no boundary loop to align by (a closed surface is no garment); align it yourself and fit with --no-align".into(),
+        ));
+    };
+    let radius = top_loop
+        .iter()
+        .map(|&v| {
+            let d = positions[v as usize] - top;
+            d.x.hypot(d.z)
+        })
+        .sum::<f64>()
+        / top_loop.len() as f64;
+    // (where the loop goes, the body height the cross-sections hang from, the first drop)
+    let (target_y, body_ref, first_drop) = if radius > WAIST_RADIUS {
+        let waist = bone_head(body, "LowerBack")?.y;
+        (waist, waist, 0.05)
+    } else {
+        let neck = bone_head(body, "Neck")?.y;
+        (neck - 0.035, neck, 0.10)
     };
     let x_mid = {
         let lo = positions.iter().map(|p| p.x).fold(f64::INFINITY, f64::min);
         let hi = positions.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
         0.5 * (lo + hi)
     };
-    let dy = neck.y - 0.035 - top.y;
+    let dy = target_y - top.y;
     let mut dzs = Vec::new();
     for k in 0..4 {
-        let drop = 0.10 + 0.05 * k as f64;
+        let drop = first_drop + 0.05 * k as f64;
         if let (Some(b), Some(g)) =
-            (body_z_centre(&body.positions, neck.y - drop, 0.12), body_z_centre(positions, top.y - drop, 0.12))
+            (body_z_centre(&body.positions, body_ref - drop, 0.12), body_z_centre(positions, top.y - drop, 0.12))
         {
             dzs.push(b - g);
         }
