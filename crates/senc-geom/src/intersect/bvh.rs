@@ -194,31 +194,24 @@ pub(super) struct Node {
     pub(super) leaf: bool,
 }
 
-/// Reusable self-intersection finder: keeps its BVH between calls and refits it when only
-/// the positions change.
-///
-/// The BVH is built once over the faces (median splits of face centroids along the longest
-/// axis, leaves of [`LEAF_SIZE`] faces) and stores, per leaf slot, the face's vertex ids and
-/// group, so the self-traversal rejects neighbouring faces by comparing ids, without
-/// touching the mesh. At the leaves, one face's box is tested against a whole leaf's boxes
-/// at once, in single precision rounded outward (boxes only ever grow, so no overlapping
-/// pair is missed; a few touching pairs more reach the exact test). Each face pair whose boxes overlap goes straight through the filters
-/// and the exact test; no pair list is materialised.
-pub struct SelfIntersector {
-    /// The faces the tree was built for (rebuilt when a mesh with other faces comes).
+/// The parts of a [`SelfIntersector`] that depend only on the faces, and on the positions
+/// its tree was built for: the tree's shape and slot order, per-slot vertex ids, vertex
+/// rings and the disk-patch boundaries. Built once per [`crate::Topology`] (see
+/// [`SearchSlot`]) and shared, read-only, by every intersector of a mesh with that topology;
+/// a tree built for other positions of the same faces stays correct after a refit (only its
+/// boxes, refit per call, are tested).
+#[derive(Debug)]
+pub(crate) struct SearchTree {
+    /// The faces the tree was built for.
     pub(super) faces: Vec<[u32; 3]>,
-    /// Faces with the same nonzero group are never tested against each other.
-    pub(super) groups: Vec<u32>,
+    /// The nodes with the boxes of the build positions (each intersector refits its copy).
     pub(super) nodes: Vec<Node>,
     /// Slot → face.
     pub(super) order: Vec<u32>,
-    /// Per slot: the face's vertex ids and group (0 = none).
+    /// Per slot: the face's vertex ids.
     pub(super) slot_faces: Vec<[u32; 3]>,
-    pub(super) slot_groups: Vec<u32>,
-    /// Per node: the group shared by all its faces when that is nonzero, else 0. A node
-    /// with a group is never traversed within itself, nor against a node of the same group
-    /// (every pair there is skipped by group anyway).
-    pub(super) node_groups: Vec<u32>,
+    /// Per group of [`LEAF_SIZE`] slots: the faces' vertex ids, all in group 0.
+    pub(super) leaf_verts: Arc<Vec<LeafVerts>>,
     /// Per vertex: [`RING_CLOSED`], [`RING_OPEN`] or [`RING_OTHER`].
     pub(super) ring_kind: Vec<u8>,
     /// Per vertex `s`, its ring's wedges `(a, b, slot)` (face `(s, a, b)` in slot `slot`) in
@@ -230,34 +223,11 @@ pub struct SelfIntersector {
     pub(super) patch_ranges: Vec<[u32; 2]>,
     /// Boundary edges (vertex pairs) of the disk nodes, node after node.
     pub(super) patch_edges: Vec<[u32; 2]>,
-    // Per-call buffers, reused.
-    pub(super) boxes: Vec<Aabb3>,
-    /// Per group of [`LEAF_SIZE`] slots (every leaf is one such group).
-    pub(super) lanes: Vec<LeafBoxes>,
-    /// Per group of [`LEAF_SIZE`] slots: the faces' vertex ids and groups (topology).
-    pub(super) leaf_verts: Vec<LeafVerts>,
-    pub(super) planes: Vec<FacePlane>,
-    /// Per vertex, whether its ring is embedded ([`RING_YES`] / [`RING_NO`]), or
-    /// [`RING_UNKNOWN`] until a pair sharing only that vertex asks (computed lazily: most
-    /// vertices lie inside skipped patches and are never asked about).
-    pub(super) rings: Vec<AtomicU8>,
-    /// Per leaf group, then per node: the box of the unit face normals.
-    pub(super) group_normals: Vec<NormalBox>,
-    pub(super) node_normals: Vec<NormalBox>,
 }
 
-impl std::fmt::Debug for SelfIntersector {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SelfIntersector")
-            .field("n_faces", &self.faces.len())
-            .field("n_nodes", &self.nodes.len())
-            .finish()
-    }
-}
-
-impl SelfIntersector {
-    /// Builds the BVH over `mesh`'s faces.
-    pub fn new(mesh: &TriMesh) -> Self {
+impl SearchTree {
+    /// Builds the tree over `mesh`'s faces at its current positions.
+    fn build(mesh: &TriMesh) -> Self {
         let n = mesh.n_faces();
         let centroids: Vec<Vec3> = (0..n)
             .map(|f| {
@@ -290,19 +260,107 @@ impl SelfIntersector {
         let (ring_start, ring_links) = ring_links(mesh, |f| slot_of[f as usize]);
         let (patch_ranges, patch_edges) = disk_patches(mesh, &nodes, &order, &slot_of, &ring_kind);
         Self {
-            slot_groups: vec![0; n],
-            leaf_verts: LeafVerts::of_slots(&slot_faces, &vec![0; n]),
-            node_groups: vec![0; nodes.len()],
+            leaf_verts: Arc::new(LeafVerts::of_slots(&slot_faces, &vec![0; n])),
+            faces,
+            nodes,
+            order,
+            slot_faces,
             ring_kind,
             ring_start,
             ring_links,
             patch_ranges,
             patch_edges,
-            faces,
+        }
+    }
+}
+
+/// Where a [`crate::Topology`] keeps its [`SearchTree`]: empty until the first
+/// [`SelfIntersector`] for a mesh with that topology builds it. Clones share the tree; two
+/// slots always compare equal (the tree is derived data, not part of the connectivity).
+#[derive(Default, Clone)]
+pub(crate) struct SearchSlot(OnceLock<Arc<SearchTree>>);
+
+impl PartialEq for SearchSlot {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for SearchSlot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.get().is_some() { "SearchSlot(built)" } else { "SearchSlot(empty)" })
+    }
+}
+
+/// Reusable self-intersection finder: keeps its BVH between calls and refits it when only
+/// the positions change.
+///
+/// The BVH is built once over the faces (median splits of face centroids along the longest
+/// axis, leaves of [`LEAF_SIZE`] faces) and stores, per leaf slot, the face's vertex ids and
+/// group, so the self-traversal rejects neighbouring faces by comparing ids, without
+/// touching the mesh. The tree and every other structure that depends only on the faces
+/// ([`SearchTree`]) is built once per [`crate::Topology`] and shared by all intersectors of
+/// meshes with that topology (clones of one mesh, or meshes made from it with
+/// [`TriMesh::with_positions`]); each intersector owns only its refit boxes and planes. At
+/// the leaves, one face's box is tested against a whole leaf's boxes at once, in single
+/// precision rounded outward (boxes only ever grow, so no overlapping pair is missed; a few
+/// touching pairs more reach the exact test). Each face pair whose boxes overlap goes
+/// straight through the filters and the exact test; no pair list is materialised.
+pub struct SelfIntersector {
+    /// The topology of the mesh the tree was made for (a mesh sharing it has these faces).
+    pub(super) topology: Arc<Topology>,
+    pub(super) tree: Arc<SearchTree>,
+    /// Faces with the same nonzero group are never tested against each other.
+    pub(super) groups: Vec<u32>,
+    /// The tree's nodes with the boxes of the last refit.
+    pub(super) nodes: Vec<Node>,
+    /// Per slot: the face's group (0 = none).
+    pub(super) slot_groups: Vec<u32>,
+    /// Per node: the group shared by all its faces when that is nonzero, else 0. A node
+    /// with a group is never traversed within itself, nor against a node of the same group
+    /// (every pair there is skipped by group anyway).
+    pub(super) node_groups: Vec<u32>,
+    // Per-call buffers, reused.
+    pub(super) boxes: Vec<Aabb3>,
+    /// Per group of [`LEAF_SIZE`] slots (every leaf is one such group).
+    pub(super) lanes: Vec<LeafBoxes>,
+    /// Per group of [`LEAF_SIZE`] slots: the faces' vertex ids and groups (topology; the
+    /// tree's own when there are no groups).
+    pub(super) leaf_verts: Arc<Vec<LeafVerts>>,
+    pub(super) planes: Vec<FacePlane>,
+    /// Per vertex, whether its ring is embedded ([`RING_YES`] / [`RING_NO`]), or
+    /// [`RING_UNKNOWN`] until a pair sharing only that vertex asks (computed lazily: most
+    /// vertices lie inside skipped patches and are never asked about).
+    pub(super) rings: Vec<AtomicU8>,
+    /// Per leaf group, then per node: the box of the unit face normals.
+    pub(super) group_normals: Vec<NormalBox>,
+    pub(super) node_normals: Vec<NormalBox>,
+}
+
+impl std::fmt::Debug for SelfIntersector {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SelfIntersector")
+            .field("n_faces", &self.tree.faces.len())
+            .field("n_nodes", &self.nodes.len())
+            .finish()
+    }
+}
+
+impl SelfIntersector {
+    /// An intersector for `mesh`'s faces: its topology's search tree, built here over the
+    /// current positions if no intersector for that topology was made before.
+    pub fn new(mesh: &TriMesh) -> Self {
+        let topology = mesh.topology_arc();
+        let tree = Arc::clone(topology.search.0.get_or_init(|| Arc::new(SearchTree::build(mesh))));
+        let n = tree.faces.len();
+        Self {
+            slot_groups: vec![0; n],
+            leaf_verts: Arc::clone(&tree.leaf_verts),
+            node_groups: vec![0; tree.nodes.len()],
+            nodes: tree.nodes.clone(),
             groups: Vec::new(),
-            nodes,
-            order,
-            slot_faces,
+            topology,
+            tree,
             boxes: Vec::new(),
             lanes: Vec::new(),
             planes: Vec::new(),
@@ -312,6 +370,12 @@ impl SelfIntersector {
         }
     }
 
+    /// Whether `mesh` has the faces the tree was made for (the same topology, or equal
+    /// faces).
+    pub(super) fn fits(&self, mesh: &TriMesh) -> bool {
+        std::ptr::eq(mesh.topology(), Arc::as_ptr(&self.topology)) || mesh.faces() == self.tree.faces.as_slice()
+    }
+
     /// Faces sharing a nonzero `groups[f]` are not tested against each other, e.g. the fan
     /// caps of closed holes when crossings of a cap with itself are not wanted (a fan's
     /// triangles share its centroid; over a tangled hole they can cross each other, and a
@@ -319,9 +383,9 @@ impl SelfIntersector {
     /// Grouped faces are still tested against every other face. A `groups` of the wrong
     /// length is ignored.
     pub fn with_groups(mut self, groups: Vec<u32>) -> Self {
-        if groups.len() == self.faces.len() {
-            self.slot_groups = self.order.iter().map(|&f| groups[f as usize]).collect();
-            self.leaf_verts = LeafVerts::of_slots(&self.slot_faces, &self.slot_groups);
+        if groups.len() == self.tree.faces.len() {
+            self.slot_groups = self.tree.order.iter().map(|&f| groups[f as usize]).collect();
+            self.leaf_verts = Arc::new(LeafVerts::of_slots(&self.tree.slot_faces, &self.slot_groups));
             self.node_groups = node_groups(&self.nodes, &self.slot_groups);
         }
         self.groups = groups;
@@ -331,7 +395,7 @@ impl SelfIntersector {
     /// Crossings of `mesh` with itself. If `mesh` has the faces this intersector was built
     /// for, the BVH is refit to the new positions; otherwise it is rebuilt.
     pub fn find(&mut self, mesh: &TriMesh) -> SelfIntersections {
-        if mesh.faces() != self.faces.as_slice() {
+        if !self.fits(mesh) {
             let groups = std::mem::take(&mut self.groups);
             let mut fresh = Self::new(mesh);
             if groups.len() == mesh.n_faces() {
@@ -364,19 +428,19 @@ impl SelfIntersector {
         Traversal {
             mesh,
             nodes: &self.nodes,
-            order: &self.order,
-            slot_faces: &self.slot_faces,
+            order: &self.tree.order,
+            slot_faces: &self.tree.slot_faces,
             slot_groups: &self.slot_groups,
             node_groups: &self.node_groups,
             lanes: &self.lanes,
             leaf_verts: &self.leaf_verts,
             planes: &self.planes,
             rings: &self.rings,
-            ring_kind: &self.ring_kind,
-            ring_start: &self.ring_start,
-            ring_links: &self.ring_links,
-            patch_ranges: &self.patch_ranges,
-            patch_edges: &self.patch_edges,
+            ring_kind: &self.tree.ring_kind,
+            ring_start: &self.tree.ring_start,
+            ring_links: &self.tree.ring_links,
+            patch_ranges: &self.tree.patch_ranges,
+            patch_edges: &self.tree.patch_edges,
             normals: &self.node_normals,
         }
     }
@@ -384,7 +448,7 @@ impl SelfIntersector {
     /// Face boxes and planes (slot order), node boxes (bottom-up) and vertex rings for the
     /// current positions.
     pub(super) fn refit(&mut self, mesh: &TriMesh) {
-        let n = self.order.len();
+        let n = self.tree.order.len();
         self.boxes.resize(n, Aabb3::EMPTY);
         self.planes.resize(n, FacePlane::ZERO);
         let n_groups = n.div_ceil(LEAF_SIZE);
@@ -392,7 +456,7 @@ impl SelfIntersector {
         self.group_normals.resize(n_groups, NormalBox::EMPTY);
         self.node_normals.resize(self.nodes.len(), NormalBox::EMPTY);
         let pos = mesh.positions();
-        let slot_faces = &self.slot_faces;
+        let slot_faces = &self.tree.slot_faces;
         // One parallel pass over leaf groups: f64 boxes and planes per slot, then the
         // group's f32 lanes (unused lanes keep their empty boxes) and normal box.
         self.lanes

@@ -231,7 +231,7 @@ fn embedded_patches_are_skipped_and_overlapping_ones_are_not() {
     let strip = crossing_spiral_strip(240, 6);
     let mut ix = SelfIntersector::new(&strip);
     let found = ix.find(&strip);
-    assert!(ix.patch_ranges[0][0] < ix.patch_ranges[0][1], "the strip is one disk");
+    assert!(ix.tree.patch_ranges[0][0] < ix.tree.patch_ranges[0][1], "the strip is one disk");
     assert!(ix.node_normals[0].direction().is_some(), "the strip's normals lie in a narrow cone");
     let skipped = skipped_nodes(&ix, &strip);
     assert!(!skipped.contains(&0) && skipped.len() > 5, "{skipped:?}");
@@ -298,7 +298,7 @@ fn grown_splits_make_most_nodes_disks() {
         sizes[i] = if nd.leaf { nd.b - nd.a } else { sizes[nd.a as usize] + sizes[nd.b as usize] };
     }
     let tried: Vec<usize> = (0..ix.nodes.len()).filter(|&n| sizes[n] >= MIN_PATCH).collect();
-    let disks = tried.iter().filter(|&&n| ix.patch_ranges[n][0] < ix.patch_ranges[n][1]).count();
+    let disks = tried.iter().filter(|&&n| ix.tree.patch_ranges[n][0] < ix.tree.patch_ranges[n][1]).count();
     assert!(disks * 100 >= tried.len() * 83, "{disks} of {} nodes are disks", tried.len());
 }
 
