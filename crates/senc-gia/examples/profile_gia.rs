@@ -91,10 +91,12 @@ fn main() {
     let total = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
     let pen = pen.unwrap();
     println!(
-        "faces {} candidate pairs {} intersecting {} | detect {detect:.2} ms, cut {cut:.2} ms, analyse (cut+paths+fill+volume+gradient) {analyse:.2} ms, total {total:.2} ms | volume {:.10e} m³",
+        "faces {} candidate pairs {} intersecting {} | detect {detect:.2} ms, cut {cut:.2} ms, analyse (cut+paths+fill+volume+gradient) {analyse:.2} ms, total {total:.2} ms | {} patches, {} rays | volume {:.10e} m³",
         mesh.n_faces(),
         inter.n_candidate_pairs,
         inter.segments.len(),
+        pen.diagnostics.patches,
+        pen.diagnostics.winding_rays,
         pen.volume
     );
 }

@@ -146,43 +146,27 @@ impl LeafVerts {
     }
 }
 
-/// `x` rounded to an `f32` not above it.
+/// Relative margin of [`f32_down`] / [`f32_up`]: just above the relative rounding error of
+/// a conversion to `f32` (`2⁻²⁴ / (1 − 2⁻²⁴) ≈ 5.9605e-8`).
+const F32_MARGIN: f64 = 6.0e-8;
+
+/// Absolute margin of [`f32_down`] / [`f32_up`]: just above the absolute rounding error of
+/// a conversion to a subnormal `f32` (half the smallest one, `7.006e-46`).
+const F32_TINY: f64 = 7.5e-46;
+
+/// `x` rounded to an `f32` not above it, without branches: `x` is moved down by more than
+/// the rounding error of the conversion (relative [`F32_MARGIN`], absolute [`F32_TINY`])
+/// and then rounded to nearest, so the result is at most about `1.2e-7 |x| + 1.5e-45` below
+/// `x`. Beyond the `f32` range: `f32::MAX` (below a larger `x`) or `−∞`.
 #[inline]
 pub(super) fn f32_down(x: f64) -> f32 {
-    let y = x as f32;
-    if (y as f64) > x {
-        f32_step(y, false)
-    } else {
-        y
-    }
+    ((x - x.abs() * F32_MARGIN - F32_TINY) as f32).min(f32::MAX)
 }
 
-/// `x` rounded to an `f32` not below it.
+/// `x` rounded to an `f32` not below it (see [`f32_down`]).
 #[inline]
 pub(super) fn f32_up(x: f64) -> f32 {
-    let y = x as f32;
-    if (y as f64) < x {
-        f32_step(y, true)
-    } else {
-        y
-    }
-}
-
-/// The neighbouring `f32` of a non-NaN `y` upward or downward (`f32::next_up` /
-/// `next_down`, which are newer than this crate's minimum Rust version).
-#[inline]
-pub(super) fn f32_step(y: f32, up: bool) -> f32 {
-    if y == 0.0 {
-        let tiny = f32::from_bits(1);
-        return if up { tiny } else { -tiny };
-    }
-    let bits = y.to_bits();
-    // Away from zero increments the magnitude bits; toward zero decrements them.
-    if (y > 0.0) == up {
-        f32::from_bits(bits + 1)
-    } else {
-        f32::from_bits(bits - 1)
-    }
+    ((x + x.abs() * F32_MARGIN + F32_TINY) as f32).max(f32::MIN)
 }
 
 /// A BVH node: an inner node with children `a`, `b`, or a leaf over slots `a..b`.
@@ -214,10 +198,10 @@ pub(crate) struct SearchTree {
     pub(super) leaf_verts: Arc<Vec<LeafVerts>>,
     /// Per vertex: [`RING_CLOSED`], [`RING_OPEN`] or [`RING_OTHER`].
     pub(super) ring_kind: Vec<u8>,
-    /// Per vertex `s`, its ring's wedges `(a, b, slot)` (face `(s, a, b)` in slot `slot`) in
+    /// Per vertex `s`, its ring's wedges `(a, b)` (face `(s, a, b)`) in
     /// `ring_links[ring_start[s]..ring_start[s + 1]]` (topology, for [`ring_is_embedded`]).
     pub(super) ring_start: Vec<u32>,
-    pub(super) ring_links: Vec<[u32; 3]>,
+    pub(super) ring_links: Vec<[u32; 2]>,
     /// Per node: its range in `patch_edges` when its faces form a topological disk of at
     /// least [`MIN_PATCH`] faces (empty otherwise); see [`Traversal::patch_is_embedded`].
     pub(super) patch_ranges: Vec<[u32; 2]>,
@@ -257,7 +241,7 @@ impl SearchTree {
         let faces = mesh.faces().to_vec();
         let slot_faces: Vec<[u32; 3]> = order.iter().map(|&f| faces[f as usize]).collect();
         let ring_kind = ring_kinds(mesh);
-        let (ring_start, ring_links) = ring_links(mesh, |f| slot_of[f as usize]);
+        let (ring_start, ring_links) = ring_links(mesh);
         let (patch_ranges, patch_edges) = disk_patches(mesh, &nodes, &order, &slot_of, &ring_kind);
         Self {
             leaf_verts: Arc::new(LeafVerts::of_slots(&slot_faces, &vec![0; n])),
@@ -320,6 +304,8 @@ pub struct SelfIntersector {
     /// with a group is never traversed within itself, nor against a node of the same group
     /// (every pair there is skipped by group anyway).
     pub(super) node_groups: Vec<u32>,
+    /// Whether some node has a nonzero group (otherwise the traversal skips the checks).
+    pub(super) grouped: bool,
     // Per-call buffers, reused.
     pub(super) boxes: Vec<Aabb3>,
     /// Per group of [`LEAF_SIZE`] slots (every leaf is one such group).
@@ -357,6 +343,7 @@ impl SelfIntersector {
             slot_groups: vec![0; n],
             leaf_verts: Arc::clone(&tree.leaf_verts),
             node_groups: vec![0; tree.nodes.len()],
+            grouped: false,
             nodes: tree.nodes.clone(),
             groups: Vec::new(),
             topology,
@@ -387,6 +374,7 @@ impl SelfIntersector {
             self.slot_groups = self.tree.order.iter().map(|&f| groups[f as usize]).collect();
             self.leaf_verts = Arc::new(LeafVerts::of_slots(&self.tree.slot_faces, &self.slot_groups));
             self.node_groups = node_groups(&self.nodes, &self.slot_groups);
+            self.grouped = self.node_groups.iter().any(|&g| g != 0);
         }
         self.groups = groups;
         self
@@ -432,6 +420,7 @@ impl SelfIntersector {
             slot_faces: &self.tree.slot_faces,
             slot_groups: &self.slot_groups,
             node_groups: &self.node_groups,
+            grouped: self.grouped,
             lanes: &self.lanes,
             leaf_verts: &self.leaf_verts,
             planes: &self.planes,
