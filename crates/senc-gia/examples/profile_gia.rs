@@ -52,19 +52,37 @@ fn main() {
         return;
     }
     let reps = 20;
-    // The first call's parts: the intersector's build (BVH, rings, disk patches), its first
-    // search, and a fresh workspace's whole first query.
+    // The first call's parts: the intersector's build (BVH, rings, disk patches) on a mesh
+    // whose topology no intersector has seen, and a fresh workspace's whole first query, on
+    // such a topology and on the topology seen before (whose search tree is shared).
+    let fresh = |n: usize| -> Vec<senc_geom::Closure> {
+        (0..n)
+            .map(|_| {
+                let m = senc_geom::TriMesh::new(mesh.positions().to_vec(), mesh.faces().to_vec()).unwrap();
+                close_holes(&m, &HoleSelection::None).unwrap()
+            })
+            .collect()
+    };
+    let meshes = fresh(reps);
     let t = Instant::now();
-    for _ in 0..reps {
-        std::hint::black_box(SelfIntersector::new(mesh));
+    for c in &meshes {
+        std::hint::black_box(SelfIntersector::new(c.mesh()));
     }
     let build = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
+    let meshes = fresh(reps);
+    let t = Instant::now();
+    for c in &meshes {
+        std::hint::black_box(GiaWorkspace::new(c).penetration(c, &GiaOptions::default()).unwrap());
+    }
+    let first_new = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
     let t = Instant::now();
     for _ in 0..reps {
         std::hint::black_box(GiaWorkspace::new(&closure).penetration(&closure, &GiaOptions::default()).unwrap());
     }
     let first = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
-    println!("first call {first:.2} ms, of which SelfIntersector::new {build:.2} ms");
+    println!(
+        "first call {first_new:.2} ms on a new topology (of which SelfIntersector::new {build:.2} ms), {first:.2} ms on a topology seen before"
+    );
     let mut ix = SelfIntersector::new(mesh).with_groups(closure.fan_groups());
     let inter = ix.find(mesh);
     let t = Instant::now();

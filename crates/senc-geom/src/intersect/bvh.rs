@@ -3,6 +3,12 @@
 
 use super::*;
 
+/// Levels of the tree build whose two halves are built in parallel (see [`Builder::node`]).
+pub(super) const PAR_BUILD_DEPTH: u32 = 2;
+
+/// Smallest node (in faces) whose halves are built in parallel.
+pub(super) const PAR_BUILD_MIN: usize = 2048;
+
 /// Faces per BVH leaf. Leaves of a few faces keep the tree shallow; the face pairs inside
 /// a leaf pair are still each checked against their boxes before any other work.
 pub(super) const LEAF_SIZE: usize = 4;
@@ -209,40 +215,55 @@ pub(crate) struct SearchTree {
     pub(super) patch_edges: Vec<[u32; 2]>,
 }
 
+/// The tree's nodes and slot order over faces with these centroids and edge neighbours
+/// (see [`Builder::node`]; `par` levels of parallel halves).
+pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Vec<Node>, Vec<u32>) {
+    let n = centroids.len();
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 2);
+    if n > 0 {
+        let mut b = Builder {
+            nbrs,
+            centroids,
+            base: 0,
+            mark: vec![u32::MAX; n],
+            queued: vec![u32::MAX; n],
+            sorted: Vec::new(),
+            heap: std::collections::BinaryHeap::new(),
+            strays: [Vec::new(), Vec::new()],
+            notches: [Vec::new(), Vec::new()],
+        };
+        b.node(&mut nodes, &mut order, 0, n, par);
+    }
+    (nodes, order)
+}
+
 impl SearchTree {
     /// Builds the tree over `mesh`'s faces at its current positions.
     fn build(mesh: &TriMesh) -> Self {
         let n = mesh.n_faces();
-        let centroids: Vec<Vec3> = (0..n)
+        let centroids: Vec<Vec3> = (0..mesh.n_faces())
             .map(|f| {
                 let [a, b, c] = mesh.triangle(f);
                 (a + b + c) / 3.0
             })
             .collect();
-        let mut order: Vec<u32> = (0..n as u32).collect();
-        let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 2);
-        if n > 0 {
-            let mut b = Builder {
-                mesh,
-                centroids: &centroids,
-                mark: vec![u32::MAX; n],
-                queued: vec![u32::MAX; n],
-                sorted: Vec::new(),
-                heap: std::collections::BinaryHeap::new(),
-                strays: [Vec::new(), Vec::new()],
-                notches: [Vec::new(), Vec::new()],
-            };
-            b.node(&mut nodes, &mut order, 0, n);
-        }
+        let nbrs = face_neighbours(mesh);
+        // The tree on one side, the vertex rings (topology only) on the other.
+        let ((nodes, order), ((ring_kind, (ring_start, ring_links)), faces)) = rayon::join(
+            || build_tree(&centroids, &nbrs, PAR_BUILD_DEPTH),
+            || ((ring_kinds(mesh), ring_links(mesh)), mesh.faces().to_vec()),
+        );
         let mut slot_of = vec![0u32; n];
         for (slot, &f) in order.iter().enumerate() {
             slot_of[f as usize] = slot as u32;
         }
-        let faces = mesh.faces().to_vec();
         let slot_faces: Vec<[u32; 3]> = order.iter().map(|&f| faces[f as usize]).collect();
-        let ring_kind = ring_kinds(mesh);
-        let (ring_start, ring_links) = ring_links(mesh);
-        let (patch_ranges, patch_edges) = disk_patches(mesh, &nodes, &order, &slot_of, &ring_kind);
+        let slot_nbrs: Vec<[u32; 3]> = order
+            .iter()
+            .map(|&f| nbrs[f as usize].map(|g| if g == NO_FACE { NO_FACE } else { slot_of[g as usize] }))
+            .collect();
+        let (patch_ranges, patch_edges) = disk_patches(mesh.n_vertices(), &nodes, &slot_faces, &slot_nbrs, &ring_kind);
         Self {
             leaf_verts: Arc::new(LeafVerts::of_slots(&slot_faces, &vec![0; n])),
             faces,
@@ -489,9 +510,13 @@ impl SelfIntersector {
     }
 }
 
-/// Tree construction state: the mesh (for edge neighbours), face centroids and scratch.
+/// Tree construction state: edge neighbours (see [`face_neighbours`]), face centroids and
+/// scratch.
 pub(super) struct Builder<'a> {
-    pub(super) mesh: &'a TriMesh,
+    pub(super) nbrs: &'a [[u32; 3]],
+    /// Slot of `order[0]` of the slice this builder is given (nonzero for the builders of
+    /// second halves made on other threads).
+    pub(super) base: usize,
     pub(super) centroids: &'a [Vec3],
     /// Per face: `2 node + side` of the split being made.
     pub(super) mark: Vec<u32>,
@@ -516,9 +541,12 @@ impl Builder<'_> {
     /// where the split line zigzags through a triangulated grid) are swapped pairwise with
     /// strays of the other side that have an edge neighbour there, so that more nodes are
     /// topological disks (see [`disk_patches`]); the sizes of both sides are unchanged.
-    pub(super) fn node(&mut self, nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize) -> u32 {
+    ///
+    /// At the first `par` levels, nodes of at least [`PAR_BUILD_MIN`] faces build their
+    /// second half on another thread (rayon); the tree is the same as without.
+    pub(super) fn node(&mut self, nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize, par: u32) -> u32 {
         let id = nodes.len();
-        nodes.push(Node { bbox: Aabb3::EMPTY, a: lo as u32, b: hi as u32, leaf: true });
+        nodes.push(Node { bbox: Aabb3::EMPTY, a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true });
         if hi - lo <= LEAF_SIZE {
             return id as u32;
         }
@@ -540,8 +568,39 @@ impl Builder<'_> {
         let mid = lo + (n_leaves / 2) * LEAF_SIZE;
         self.grow_split(order, lo, mid, hi, axis, id as u32);
         self.swap_strays(order, lo, mid, hi, id as u32);
-        let l = self.node(nodes, order, lo, mid);
-        let r = self.node(nodes, order, mid, hi);
+        let (l, r) = if par > 0 && hi - lo >= PAR_BUILD_MIN {
+            // The second half on another thread, into its own node list and scratch (the
+            // halves share no face), appended after the first half's subtree: the same
+            // tree, numbered as the sequential build numbers it.
+            let (first, second) = order[..hi].split_at_mut(mid);
+            let mut other = Builder {
+                nbrs: self.nbrs,
+                centroids: self.centroids,
+                base: self.base + mid,
+                mark: vec![u32::MAX; self.mark.len()],
+                queued: vec![u32::MAX; self.queued.len()],
+                sorted: Vec::new(),
+                heap: std::collections::BinaryHeap::new(),
+                strays: [Vec::new(), Vec::new()],
+                notches: [Vec::new(), Vec::new()],
+            };
+            let mut second_nodes = Vec::with_capacity(2 * (hi - mid) / LEAF_SIZE + 2);
+            let (l, r) = rayon::join(
+                || self.node(nodes, first, lo, mid, par - 1),
+                || other.node(&mut second_nodes, second, 0, hi - mid, par - 1),
+            );
+            let offset = nodes.len() as u32;
+            nodes.extend(second_nodes.into_iter().map(|nd| {
+                if nd.leaf {
+                    nd
+                } else {
+                    Node { a: nd.a + offset, b: nd.b + offset, ..nd }
+                }
+            }));
+            (l, r + offset)
+        } else {
+            (self.node(nodes, order, lo, mid, 0), self.node(nodes, order, mid, hi, 0))
+        };
         nodes[id] = Node { bbox: Aabb3::EMPTY, a: l, b: r, leaf: false };
         id as u32
     }
@@ -553,8 +612,7 @@ impl Builder<'_> {
     /// faces allow); when the queue runs dry (another component), growth restarts from the
     /// smallest face not taken.
     pub(super) fn grow_split(&mut self, order: &mut [u32], lo: usize, mid: usize, hi: usize, axis: usize, id: u32) {
-        let topo = self.mesh.topology();
-        let (face_edges, edge_faces) = (topo.face_edges(), topo.edge_faces());
+        let nbrs = self.nbrs;
         let centroids = self.centroids;
         let key = |f: u32| {
             let b = centroids[f as usize][axis].to_bits();
@@ -584,9 +642,7 @@ impl Builder<'_> {
             }
             self.mark[f as usize] = left;
             taken += 1;
-            for e in face_edges[f as usize] {
-                let [g0, g1] = edge_faces[e as usize];
-                let g = if g0 == f { g1 } else { g0 };
+            for g in nbrs[f as usize] {
                 if g != NO_FACE && self.mark[g as usize] == unassigned && self.queued[g as usize] != id {
                     self.queued[g as usize] = id;
                     self.heap.push(std::cmp::Reverse(key(g)));
@@ -606,8 +662,7 @@ impl Builder<'_> {
     }
 
     pub(super) fn swap_strays(&mut self, order: &mut [u32], lo: usize, mid: usize, hi: usize, id: u32) {
-        let topo = self.mesh.topology();
-        let (face_edges, edge_faces) = (topo.face_edges(), topo.edge_faces());
+        let nbrs = self.nbrs;
         for (k, &f) in order[lo..hi].iter().enumerate() {
             self.mark[f as usize] = 2 * id + (lo + k >= mid) as u32;
         }
@@ -618,9 +673,7 @@ impl Builder<'_> {
             let count = |f: u32| {
                 let own = mark[f as usize];
                 let (mut same, mut other) = (0, 0);
-                for e in face_edges[f as usize] {
-                    let [g0, g1] = edge_faces[e as usize];
-                    let g = if g0 == f { g1 } else { g0 };
+                for g in nbrs[f as usize] {
                     if g != NO_FACE {
                         let m = mark[g as usize];
                         same += (m == own) as u32;

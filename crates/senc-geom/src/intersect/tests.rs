@@ -286,6 +286,19 @@ fn nodes_of_one_fan_are_skipped_but_fans_still_meet_other_faces() {
 }
 
 #[test]
+fn parallel_tree_build_gives_the_sequential_tree() {
+    let m = shapes::garment_benchmark().unwrap();
+    assert!(m.n_faces() >= 4 * PAR_BUILD_MIN, "{} faces: too few to build in parallel", m.n_faces());
+    let centroids: Vec<Vec3> = (0..m.n_faces()).map(|f| m.triangle(f).iter().sum::<Vec3>() / 3.0).collect();
+    let nbrs = face_neighbours(&m);
+    let (seq_nodes, seq_order) = build_tree(&centroids, &nbrs, 0);
+    let (par_nodes, par_order) = build_tree(&centroids, &nbrs, PAR_BUILD_DEPTH);
+    assert_eq!(seq_order, par_order);
+    let shape = |n: &[Node]| n.iter().map(|nd| (nd.a, nd.b, nd.leaf)).collect::<Vec<_>>();
+    assert_eq!(shape(&seq_nodes), shape(&par_nodes));
+}
+
+#[test]
 fn grown_splits_make_most_nodes_disks() {
     // A sleeve pushed into a torso (grid-made): with halves grown across edges, 85% of
     // the nodes large enough to be tried are topological disks (79% with plain median
