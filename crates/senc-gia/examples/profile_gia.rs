@@ -2,7 +2,8 @@
 //! mesh: `cargo run --release -p senc-gia --example profile_gia` (`SENC_PROFILE_FRAME=tshirt_0020`
 //! for a committed garment frame instead, all holes fanned).
 //!
-//! `profile_gia detect N` (or `analyse N`, `total N`) runs only that phase N times and
+//! `profile_gia detect N` (or `analyse N`, `total N`, `first N`: a fresh workspace's first
+//! query on the topology seen before) runs only that phase N times and
 //! prints nothing else, for CPU-time measurements with `perf stat -e task-clock` on a busy
 //! machine.
 
@@ -41,6 +42,9 @@ fn main() {
             match args[1].as_str() {
                 "detect" => drop(std::hint::black_box(ix.find(mesh))),
                 "analyse" => drop(std::hint::black_box(ws.analyse(&closure, &inter, &GiaOptions::default()))),
+                "first" => drop(std::hint::black_box(
+                    GiaWorkspace::new(&closure).penetration(&closure, &GiaOptions::default()).unwrap(),
+                )),
                 _ => drop(std::hint::black_box(ws.penetration(&closure, &GiaOptions::default()).unwrap())),
             }
             times.push(t.elapsed().as_secs_f64() * 1e3);

@@ -51,14 +51,16 @@ impl Aabb3 {
         Aabb3 { lo: [lo(0), lo(1), lo(2)], hi: [hi(0), hi(1), hi(2)] }
     }
 
+    /// Whether the boxes overlap: all six comparisons, combined without branches (the
+    /// traversal's outcomes are unpredictable, so short-circuiting only adds mispredictions).
     #[inline]
     pub(super) fn overlaps(&self, o: &Aabb3) -> bool {
-        self.lo[0] <= o.hi[0]
-            && o.lo[0] <= self.hi[0]
-            && self.lo[1] <= o.hi[1]
-            && o.lo[1] <= self.hi[1]
-            && self.lo[2] <= o.hi[2]
-            && o.lo[2] <= self.hi[2]
+        (self.lo[0] <= o.hi[0])
+            & (o.lo[0] <= self.hi[0])
+            & (self.lo[1] <= o.hi[1])
+            & (o.lo[1] <= self.hi[1])
+            & (self.lo[2] <= o.hi[2])
+            & (o.lo[2] <= self.hi[2])
     }
 
     #[inline]
