@@ -224,20 +224,36 @@ pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Ve
     let mut order: Vec<u32> = (0..n as u32).collect();
     let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 2);
     if n > 0 {
+        // The faces sorted along each axis once; every split keeps each list sorted per node.
+        let sorted_along = |axis: usize| {
+            let mut l: Vec<u32> = (0..n as u32).collect();
+            l.sort_unstable_by_key(|&f| axis_key(centroids, axis, f));
+            l
+        };
+        let (mut x, (mut y, mut z)) =
+            rayon::join(|| sorted_along(0), || rayon::join(|| sorted_along(1), || sorted_along(2)));
         let mut b = Builder {
             nbrs,
             centroids,
             base: 0,
             mark: vec![u32::MAX; n],
             queued: vec![u32::MAX; n],
-            sorted: Vec::new(),
+            scratch: Vec::new(),
             heap: std::collections::BinaryHeap::new(),
             strays: [Vec::new(), Vec::new()],
             notches: [Vec::new(), Vec::new()],
         };
-        b.node(&mut nodes, &mut order, 0, n, par);
+        b.node(&mut nodes, &mut order, &mut [&mut x[..], &mut y[..], &mut z[..]], 0, n, par);
     }
     (nodes, order)
+}
+
+/// Sort key of face `f` along `axis`: its centroid coordinate as ordered bits, then its
+/// index (a total order, so each node's faces have one sorted order).
+#[inline]
+pub(super) fn axis_key(centroids: &[Vec3], axis: usize, f: u32) -> (u64, u32) {
+    let b = centroids[f as usize][axis].to_bits();
+    (if b >> 63 == 1 { !b } else { b | (1 << 63) }, f)
 }
 
 impl SearchTree {
@@ -524,7 +540,8 @@ pub(super) struct Builder<'a> {
     pub(super) mark: Vec<u32>,
     /// Per face: the node whose growing split has queued it.
     pub(super) queued: Vec<u32>,
-    pub(super) sorted: Vec<u32>,
+    /// Scratch of [`Self::partition`].
+    pub(super) scratch: Vec<u32>,
     pub(super) heap: std::collections::BinaryHeap<std::cmp::Reverse<(u64, u32)>>,
     pub(super) strays: [Vec<usize>; 2],
     pub(super) notches: [Vec<usize>; 2],
@@ -546,7 +563,15 @@ impl Builder<'_> {
     ///
     /// At the first `par` levels, nodes of at least [`PAR_BUILD_MIN`] faces build their
     /// second half on another thread (rayon); the tree is the same as without.
-    pub(super) fn node(&mut self, nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize, par: u32) -> u32 {
+    pub(super) fn node(
+        &mut self,
+        nodes: &mut Vec<Node>,
+        order: &mut [u32],
+        lists: &mut [&mut [u32]; 3],
+        lo: usize,
+        hi: usize,
+        par: u32,
+    ) -> u32 {
         let id = nodes.len();
         nodes.push(Node { bbox: Aabb3::EMPTY, a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true });
         if hi - lo <= LEAF_SIZE {
@@ -568,28 +593,36 @@ impl Builder<'_> {
         };
         let n_leaves = (hi - lo).div_ceil(LEAF_SIZE);
         let mid = lo + (n_leaves / 2) * LEAF_SIZE;
-        self.grow_split(order, lo, mid, hi, axis, id as u32);
+        self.grow_split(order, &lists[axis][lo..hi], lo, mid, axis, id as u32);
         self.swap_strays(order, lo, mid, hi, id as u32);
+        for list in lists.iter_mut() {
+            self.partition(&mut list[lo..hi], 2 * id as u32);
+        }
         let (l, r) = if par > 0 && hi - lo >= PAR_BUILD_MIN {
             // The second half on another thread, into its own node list and scratch (the
             // halves share no face), appended after the first half's subtree: the same
             // tree, numbered as the sequential build numbers it.
             let (first, second) = order[..hi].split_at_mut(mid);
+            let [x, y, z] = lists.each_mut().map(|l| {
+                let list: &mut [u32] = std::mem::take(l);
+                list[..hi].split_at_mut(mid)
+            });
+            let (mut first_lists, mut second_lists) = ([x.0, y.0, z.0], [x.1, y.1, z.1]);
             let mut other = Builder {
                 nbrs: self.nbrs,
                 centroids: self.centroids,
                 base: self.base + mid,
                 mark: vec![u32::MAX; self.mark.len()],
                 queued: vec![u32::MAX; self.queued.len()],
-                sorted: Vec::new(),
+                scratch: Vec::new(),
                 heap: std::collections::BinaryHeap::new(),
                 strays: [Vec::new(), Vec::new()],
                 notches: [Vec::new(), Vec::new()],
             };
             let mut second_nodes = Vec::with_capacity(2 * (hi - mid) / LEAF_SIZE + 2);
             let (l, r) = rayon::join(
-                || self.node(nodes, first, lo, mid, par - 1),
-                || other.node(&mut second_nodes, second, 0, hi - mid, par - 1),
+                || self.node(nodes, first, &mut first_lists, lo, mid, par - 1),
+                || other.node(&mut second_nodes, second, &mut second_lists, 0, hi - mid, par - 1),
             );
             let offset = nodes.len() as u32;
             nodes.extend(second_nodes.into_iter().map(|nd| {
@@ -601,30 +634,33 @@ impl Builder<'_> {
             }));
             (l, r + offset)
         } else {
-            (self.node(nodes, order, lo, mid, 0), self.node(nodes, order, mid, hi, 0))
+            (self.node(nodes, order, lists, lo, mid, 0), self.node(nodes, order, lists, mid, hi, 0))
         };
         nodes[id] = Node { bbox: Aabb3::EMPTY, a: l, b: r, leaf: false };
         id as u32
     }
 
-    /// Splits `order[lo..hi]` into a first part of `mid − lo` faces grown face by face
+    /// Splits `order[lo..hi]` (also given as `sorted`, the same faces sorted by
+    /// [`axis_key`] along `axis`) into a first part of `mid − lo` faces grown face by face
     /// across edges from the face with the smallest centroid coordinate along `axis`, always
     /// taking the queued face that is smallest along `axis` (so the cut follows the median
     /// plane, as in a median split, while the first part stays edge-connected where the
     /// faces allow); when the queue runs dry (another component), growth restarts from the
     /// smallest face not taken.
-    pub(super) fn grow_split(&mut self, order: &mut [u32], lo: usize, mid: usize, hi: usize, axis: usize, id: u32) {
+    pub(super) fn grow_split(
+        &mut self,
+        order: &mut [u32],
+        sorted: &[u32],
+        lo: usize,
+        mid: usize,
+        axis: usize,
+        id: u32,
+    ) {
         let nbrs = self.nbrs;
         let centroids = self.centroids;
-        let key = |f: u32| {
-            let b = centroids[f as usize][axis].to_bits();
-            (if b >> 63 == 1 { !b } else { b | (1 << 63) }, f)
-        };
+        let key = |f: u32| axis_key(centroids, axis, f);
         let (unassigned, left) = (2 * id + 1, 2 * id);
-        self.sorted.clear();
-        self.sorted.extend_from_slice(&order[lo..hi]);
-        self.sorted.sort_unstable_by_key(|&f| key(f));
-        for &f in &self.sorted {
+        for &f in sorted {
             self.mark[f as usize] = unassigned;
         }
         self.heap.clear();
@@ -633,10 +669,10 @@ impl Builder<'_> {
             let f = match self.heap.pop() {
                 Some(std::cmp::Reverse((_, f))) => f,
                 None => {
-                    while self.mark[self.sorted[next_seed] as usize] != unassigned {
+                    while self.mark[sorted[next_seed] as usize] != unassigned {
                         next_seed += 1;
                     }
-                    self.sorted[next_seed]
+                    sorted[next_seed]
                 }
             };
             if self.mark[f as usize] != unassigned {
@@ -652,7 +688,7 @@ impl Builder<'_> {
             }
         }
         let (mut a, mut b) = (lo, mid);
-        for &f in &self.sorted {
+        for &f in sorted {
             if self.mark[f as usize] == left {
                 order[a] = f;
                 a += 1;
@@ -661,6 +697,23 @@ impl Builder<'_> {
                 b += 1;
             }
         }
+    }
+
+    /// Reorders `list` (a node's faces) so that the faces marked `left` come first, keeping
+    /// the order within each part: a list sorted along an axis stays sorted in both halves.
+    pub(super) fn partition(&mut self, list: &mut [u32], left: u32) {
+        self.scratch.clear();
+        let mut k = 0;
+        for i in 0..list.len() {
+            let f = list[i];
+            if self.mark[f as usize] == left {
+                list[k] = f;
+                k += 1;
+            } else {
+                self.scratch.push(f);
+            }
+        }
+        list[k..].copy_from_slice(&self.scratch);
     }
 
     pub(super) fn swap_strays(&mut self, order: &mut [u32], lo: usize, mid: usize, hi: usize, id: u32) {
