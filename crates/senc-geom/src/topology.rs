@@ -2,6 +2,7 @@
 //! loops and connected components. Built once per mesh and shared by every frame.
 
 use crate::error::MeshError;
+use crate::intersect::SearchSlot;
 
 /// Marker for "no face" in [`Topology::edge_faces`].
 pub const NO_FACE: u32 = u32::MAX;
@@ -25,6 +26,10 @@ pub struct Topology {
     boundary_loops: Vec<Vec<u32>>,
     face_component: Vec<u32>,
     n_components: usize,
+    /// The self-intersection search tree, built by the first
+    /// [`crate::intersect::SelfIntersector`] made for a mesh with this topology and shared by
+    /// every later one (ignored by `==`).
+    pub(crate) search: SearchSlot,
 }
 
 impl Topology {
@@ -121,6 +126,7 @@ impl Topology {
             boundary_loops,
             face_component,
             n_components,
+            search: SearchSlot::default(),
         })
     }
 

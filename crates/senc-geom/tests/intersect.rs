@@ -105,6 +105,20 @@ fn refit_gives_the_same_answer_as_rebuild() {
     assert_eq!(ix.find(&moved), self_intersections(&moved));
 }
 
+#[test]
+fn a_tree_shared_through_the_topology_gives_the_same_answer_as_a_fresh_one() {
+    // The first intersector builds the topology's tree at these positions; a mesh with the
+    // same topology at other positions reuses it.
+    let m = boxes(Vec3::new(0.3, 0.2, 0.1), 3);
+    let first = self_intersections(&m);
+    let moved = boxes(Vec3::new(0.35, 0.25, 0.05), 3).positions().to_vec();
+    let shared = m.with_positions(moved.clone()).unwrap();
+    let fresh = TriMesh::new(moved, m.faces().to_vec()).unwrap();
+    let expected = self_intersections(&fresh);
+    assert_ne!(first, expected);
+    assert_eq!(SelfIntersector::new(&shared).find(&shared), expected);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
     #[test]

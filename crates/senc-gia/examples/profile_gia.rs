@@ -2,7 +2,8 @@
 //! mesh: `cargo run --release -p senc-gia --example profile_gia` (`SENC_PROFILE_FRAME=tshirt_0020`
 //! for a committed garment frame instead, all holes fanned).
 //!
-//! `profile_gia detect N` (or `analyse N`, `total N`) runs only that phase N times and
+//! `profile_gia detect N` (or `analyse N`, `total N`, `first N`: a fresh workspace's first
+//! query on the topology seen before) runs only that phase N times and
 //! prints nothing else, for CPU-time measurements with `perf stat -e task-clock` on a busy
 //! machine.
 
@@ -41,6 +42,9 @@ fn main() {
             match args[1].as_str() {
                 "detect" => drop(std::hint::black_box(ix.find(mesh))),
                 "analyse" => drop(std::hint::black_box(ws.analyse(&closure, &inter, &GiaOptions::default()))),
+                "first" => drop(std::hint::black_box(
+                    GiaWorkspace::new(&closure).penetration(&closure, &GiaOptions::default()).unwrap(),
+                )),
                 _ => drop(std::hint::black_box(ws.penetration(&closure, &GiaOptions::default()).unwrap())),
             }
             times.push(t.elapsed().as_secs_f64() * 1e3);
@@ -52,19 +56,37 @@ fn main() {
         return;
     }
     let reps = 20;
-    // The first call's parts: the intersector's build (BVH, rings, disk patches), its first
-    // search, and a fresh workspace's whole first query.
+    // The first call's parts: the intersector's build (BVH, rings, disk patches) on a mesh
+    // whose topology no intersector has seen, and a fresh workspace's whole first query, on
+    // such a topology and on the topology seen before (whose search tree is shared).
+    let fresh = |n: usize| -> Vec<senc_geom::Closure> {
+        (0..n)
+            .map(|_| {
+                let m = senc_geom::TriMesh::new(mesh.positions().to_vec(), mesh.faces().to_vec()).unwrap();
+                close_holes(&m, &HoleSelection::None).unwrap()
+            })
+            .collect()
+    };
+    let meshes = fresh(reps);
     let t = Instant::now();
-    for _ in 0..reps {
-        std::hint::black_box(SelfIntersector::new(mesh));
+    for c in &meshes {
+        std::hint::black_box(SelfIntersector::new(c.mesh()));
     }
     let build = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
+    let meshes = fresh(reps);
+    let t = Instant::now();
+    for c in &meshes {
+        std::hint::black_box(GiaWorkspace::new(c).penetration(c, &GiaOptions::default()).unwrap());
+    }
+    let first_new = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
     let t = Instant::now();
     for _ in 0..reps {
         std::hint::black_box(GiaWorkspace::new(&closure).penetration(&closure, &GiaOptions::default()).unwrap());
     }
     let first = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
-    println!("first call {first:.2} ms, of which SelfIntersector::new {build:.2} ms");
+    println!(
+        "first call {first_new:.2} ms on a new topology (of which SelfIntersector::new {build:.2} ms), {first:.2} ms on a topology seen before"
+    );
     let mut ix = SelfIntersector::new(mesh).with_groups(closure.fan_groups());
     let inter = ix.find(mesh);
     let t = Instant::now();
@@ -91,10 +113,12 @@ fn main() {
     let total = t.elapsed().as_secs_f64() * 1e3 / reps as f64;
     let pen = pen.unwrap();
     println!(
-        "faces {} candidate pairs {} intersecting {} | detect {detect:.2} ms, cut {cut:.2} ms, analyse (cut+paths+fill+volume+gradient) {analyse:.2} ms, total {total:.2} ms | volume {:.10e} m³",
+        "faces {} candidate pairs {} intersecting {} | detect {detect:.2} ms, cut {cut:.2} ms, analyse (cut+paths+fill+volume+gradient) {analyse:.2} ms, total {total:.2} ms | {} patches, {} rays | volume {:.10e} m³",
         mesh.n_faces(),
         inter.n_candidate_pairs,
         inter.segments.len(),
+        pen.diagnostics.patches,
+        pen.diagnostics.winding_rays,
         pen.volume
     );
 }

@@ -340,14 +340,16 @@ pub(crate) fn classify(
     }
     // Probes per patch: its largest uncut face and its largest piece. An uncut face's
     // centroid lies well inside it; a ray that finds its origin exactly on another face is
-    // refused and the next probe is tried.
+    // refused and the next probe is tried. Uncut faces are ranked by their squared doubled
+    // area (the same order, without a square root per face), pieces by their area; the two
+    // kinds are only compared among themselves.
     let mut best_face: Vec<(f64, u32)> = vec![(-1.0, u32::MAX); n_patches];
     let mut best_piece: Vec<(f64, u32)> = vec![(-1.0, u32::MAX); n_patches];
     for id in live_ids(cut) {
         let p = patch_of[id as usize] as usize;
         let (best, area) = if (id as usize) < cut.n_faces {
             patches[p].n_faces += 1;
-            (&mut best_face[p], mesh.face_normal_scaled(id as usize).norm())
+            (&mut best_face[p], mesh.face_normal_scaled(id as usize).norm_squared())
         } else {
             patches[p].n_pieces += 1;
             (&mut best_piece[p], volume::area(mesh, cut, nodes, id))

@@ -3,6 +3,12 @@
 
 use super::*;
 
+/// Levels of the tree build whose two halves are built in parallel (see [`Builder::node`]).
+pub(super) const PAR_BUILD_DEPTH: u32 = 2;
+
+/// Smallest node (in faces) whose halves are built in parallel.
+pub(super) const PAR_BUILD_MIN: usize = 2048;
+
 /// Faces per BVH leaf. Leaves of a few faces keep the tree shallow; the face pairs inside
 /// a leaf pair are still each checked against their boxes before any other work.
 pub(super) const LEAF_SIZE: usize = 4;
@@ -45,14 +51,16 @@ impl Aabb3 {
         Aabb3 { lo: [lo(0), lo(1), lo(2)], hi: [hi(0), hi(1), hi(2)] }
     }
 
+    /// Whether the boxes overlap: all six comparisons, combined without branches (the
+    /// traversal's outcomes are unpredictable, so short-circuiting only adds mispredictions).
     #[inline]
     pub(super) fn overlaps(&self, o: &Aabb3) -> bool {
-        self.lo[0] <= o.hi[0]
-            && o.lo[0] <= self.hi[0]
-            && self.lo[1] <= o.hi[1]
-            && o.lo[1] <= self.hi[1]
-            && self.lo[2] <= o.hi[2]
-            && o.lo[2] <= self.hi[2]
+        (self.lo[0] <= o.hi[0])
+            & (o.lo[0] <= self.hi[0])
+            & (self.lo[1] <= o.hi[1])
+            & (o.lo[1] <= self.hi[1])
+            & (self.lo[2] <= o.hi[2])
+            & (o.lo[2] <= self.hi[2])
     }
 
     #[inline]
@@ -146,43 +154,27 @@ impl LeafVerts {
     }
 }
 
-/// `x` rounded to an `f32` not above it.
+/// Relative margin of [`f32_down`] / [`f32_up`]: just above the relative rounding error of
+/// a conversion to `f32` (`2⁻²⁴ / (1 − 2⁻²⁴) ≈ 5.9605e-8`).
+const F32_MARGIN: f64 = 6.0e-8;
+
+/// Absolute margin of [`f32_down`] / [`f32_up`]: just above the absolute rounding error of
+/// a conversion to a subnormal `f32` (half the smallest one, `7.006e-46`).
+const F32_TINY: f64 = 7.5e-46;
+
+/// `x` rounded to an `f32` not above it, without branches: `x` is moved down by more than
+/// the rounding error of the conversion (relative [`F32_MARGIN`], absolute [`F32_TINY`])
+/// and then rounded to nearest, so the result is at most about `1.2e-7 |x| + 1.5e-45` below
+/// `x`. Beyond the `f32` range: `f32::MAX` (below a larger `x`) or `−∞`.
 #[inline]
 pub(super) fn f32_down(x: f64) -> f32 {
-    let y = x as f32;
-    if (y as f64) > x {
-        f32_step(y, false)
-    } else {
-        y
-    }
+    ((x - x.abs() * F32_MARGIN - F32_TINY) as f32).min(f32::MAX)
 }
 
-/// `x` rounded to an `f32` not below it.
+/// `x` rounded to an `f32` not below it (see [`f32_down`]).
 #[inline]
 pub(super) fn f32_up(x: f64) -> f32 {
-    let y = x as f32;
-    if (y as f64) < x {
-        f32_step(y, true)
-    } else {
-        y
-    }
-}
-
-/// The neighbouring `f32` of a non-NaN `y` upward or downward (`f32::next_up` /
-/// `next_down`, which are newer than this crate's minimum Rust version).
-#[inline]
-pub(super) fn f32_step(y: f32, up: bool) -> f32 {
-    if y == 0.0 {
-        let tiny = f32::from_bits(1);
-        return if up { tiny } else { -tiny };
-    }
-    let bits = y.to_bits();
-    // Away from zero increments the magnitude bits; toward zero decrements them.
-    if (y > 0.0) == up {
-        f32::from_bits(bits + 1)
-    } else {
-        f32::from_bits(bits - 1)
-    }
+    ((x + x.abs() * F32_MARGIN + F32_TINY) as f32).max(f32::MIN)
 }
 
 /// A BVH node: an inner node with children `a`, `b`, or a leaf over slots `a..b`.
@@ -194,48 +186,172 @@ pub(super) struct Node {
     pub(super) leaf: bool,
 }
 
+/// The parts of a [`SelfIntersector`] that depend only on the faces, and on the positions
+/// its tree was built for: the tree's shape and slot order, per-slot vertex ids, vertex
+/// rings and the disk-patch boundaries. Built once per [`crate::Topology`] (see
+/// [`SearchSlot`]) and shared, read-only, by every intersector of a mesh with that topology;
+/// a tree built for other positions of the same faces stays correct after a refit (only its
+/// boxes, refit per call, are tested).
+#[derive(Debug)]
+pub(crate) struct SearchTree {
+    /// The faces the tree was built for.
+    pub(super) faces: Vec<[u32; 3]>,
+    /// The nodes with the boxes of the build positions (each intersector refits its copy).
+    pub(super) nodes: Vec<Node>,
+    /// Slot → face.
+    pub(super) order: Vec<u32>,
+    /// Per slot: the face's vertex ids.
+    pub(super) slot_faces: Vec<[u32; 3]>,
+    /// Per group of [`LEAF_SIZE`] slots: the faces' vertex ids, all in group 0.
+    pub(super) leaf_verts: Arc<Vec<LeafVerts>>,
+    /// Per vertex: [`RING_CLOSED`], [`RING_OPEN`] or [`RING_OTHER`].
+    pub(super) ring_kind: Vec<u8>,
+    /// Per vertex `s`, its ring's wedges `(a, b)` (face `(s, a, b)`) in
+    /// `ring_links[ring_start[s]..ring_start[s + 1]]` (topology, for [`ring_is_embedded`]).
+    pub(super) ring_start: Vec<u32>,
+    pub(super) ring_links: Vec<[u32; 2]>,
+    /// Per node: its range in `patch_edges` when its faces form a topological disk of at
+    /// least [`MIN_PATCH`] faces (empty otherwise); see [`Traversal::patch_is_embedded`].
+    pub(super) patch_ranges: Vec<[u32; 2]>,
+    /// Boundary edges (vertex pairs) of the disk nodes, node after node.
+    pub(super) patch_edges: Vec<[u32; 2]>,
+}
+
+/// The tree's nodes and slot order over faces with these centroids and edge neighbours
+/// (see [`Builder::node`]; `par` levels of parallel halves).
+pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Vec<Node>, Vec<u32>) {
+    let n = centroids.len();
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 2);
+    if n > 0 {
+        // The faces sorted along each axis once; every split keeps each list sorted per node.
+        let sorted_along = |axis: usize| {
+            let mut l: Vec<u32> = (0..n as u32).collect();
+            l.sort_unstable_by_key(|&f| axis_key(centroids, axis, f));
+            l
+        };
+        let (mut x, (mut y, mut z)) =
+            rayon::join(|| sorted_along(0), || rayon::join(|| sorted_along(1), || sorted_along(2)));
+        let mut b = Builder {
+            nbrs,
+            centroids,
+            base: 0,
+            mark: vec![u32::MAX; n],
+            queued: vec![u32::MAX; n],
+            scratch: Vec::new(),
+            heap: std::collections::BinaryHeap::new(),
+            strays: [Vec::new(), Vec::new()],
+            notches: [Vec::new(), Vec::new()],
+        };
+        b.node(&mut nodes, &mut order, &mut [&mut x[..], &mut y[..], &mut z[..]], 0, n, par);
+    }
+    (nodes, order)
+}
+
+/// Sort key of face `f` along `axis`: its centroid coordinate as ordered bits, then its
+/// index (a total order, so each node's faces have one sorted order).
+#[inline]
+pub(super) fn axis_key(centroids: &[Vec3], axis: usize, f: u32) -> (u64, u32) {
+    let b = centroids[f as usize][axis].to_bits();
+    (if b >> 63 == 1 { !b } else { b | (1 << 63) }, f)
+}
+
+impl SearchTree {
+    /// Builds the tree over `mesh`'s faces at its current positions.
+    fn build(mesh: &TriMesh) -> Self {
+        let n = mesh.n_faces();
+        let centroids: Vec<Vec3> = (0..mesh.n_faces())
+            .map(|f| {
+                let [a, b, c] = mesh.triangle(f);
+                (a + b + c) / 3.0
+            })
+            .collect();
+        let nbrs = face_neighbours(mesh);
+        // The tree on one side, the vertex rings (topology only) on the other.
+        let ((nodes, order), ((ring_kind, (ring_start, ring_links)), faces)) = rayon::join(
+            || build_tree(&centroids, &nbrs, PAR_BUILD_DEPTH),
+            || ((ring_kinds(mesh), ring_links(mesh)), mesh.faces().to_vec()),
+        );
+        let mut slot_of = vec![0u32; n];
+        for (slot, &f) in order.iter().enumerate() {
+            slot_of[f as usize] = slot as u32;
+        }
+        let slot_faces: Vec<[u32; 3]> = order.iter().map(|&f| faces[f as usize]).collect();
+        let slot_nbrs: Vec<[u32; 3]> = order
+            .iter()
+            .map(|&f| nbrs[f as usize].map(|g| if g == NO_FACE { NO_FACE } else { slot_of[g as usize] }))
+            .collect();
+        let (patch_ranges, patch_edges) = disk_patches(mesh.n_vertices(), &nodes, &slot_faces, &slot_nbrs, &ring_kind);
+        Self {
+            leaf_verts: Arc::new(LeafVerts::of_slots(&slot_faces, &vec![0; n])),
+            faces,
+            nodes,
+            order,
+            slot_faces,
+            ring_kind,
+            ring_start,
+            ring_links,
+            patch_ranges,
+            patch_edges,
+        }
+    }
+}
+
+/// Where a [`crate::Topology`] keeps its [`SearchTree`]: empty until the first
+/// [`SelfIntersector`] for a mesh with that topology builds it. Clones share the tree; two
+/// slots always compare equal (the tree is derived data, not part of the connectivity).
+#[derive(Default, Clone)]
+pub(crate) struct SearchSlot(OnceLock<Arc<SearchTree>>);
+
+impl PartialEq for SearchSlot {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for SearchSlot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.get().is_some() { "SearchSlot(built)" } else { "SearchSlot(empty)" })
+    }
+}
+
 /// Reusable self-intersection finder: keeps its BVH between calls and refits it when only
 /// the positions change.
 ///
 /// The BVH is built once over the faces (median splits of face centroids along the longest
 /// axis, leaves of [`LEAF_SIZE`] faces) and stores, per leaf slot, the face's vertex ids and
 /// group, so the self-traversal rejects neighbouring faces by comparing ids, without
-/// touching the mesh. At the leaves, one face's box is tested against a whole leaf's boxes
-/// at once, in single precision rounded outward (boxes only ever grow, so no overlapping
-/// pair is missed; a few touching pairs more reach the exact test). Each face pair whose boxes overlap goes straight through the filters
-/// and the exact test; no pair list is materialised.
+/// touching the mesh. The tree and every other structure that depends only on the faces
+/// ([`SearchTree`]) is built once per [`crate::Topology`] and shared by all intersectors of
+/// meshes with that topology (clones of one mesh, or meshes made from it with
+/// [`TriMesh::with_positions`]); each intersector owns only its refit boxes and planes. At
+/// the leaves, one face's box is tested against a whole leaf's boxes at once, in single
+/// precision rounded outward (boxes only ever grow, so no overlapping pair is missed; a few
+/// touching pairs more reach the exact test). Each face pair whose boxes overlap goes
+/// straight through the filters and the exact test; no pair list is materialised.
 pub struct SelfIntersector {
-    /// The faces the tree was built for (rebuilt when a mesh with other faces comes).
-    pub(super) faces: Vec<[u32; 3]>,
+    /// The topology of the mesh the tree was made for (a mesh sharing it has these faces).
+    pub(super) topology: Arc<Topology>,
+    pub(super) tree: Arc<SearchTree>,
     /// Faces with the same nonzero group are never tested against each other.
     pub(super) groups: Vec<u32>,
+    /// The tree's nodes with the boxes of the last refit.
     pub(super) nodes: Vec<Node>,
-    /// Slot → face.
-    pub(super) order: Vec<u32>,
-    /// Per slot: the face's vertex ids and group (0 = none).
-    pub(super) slot_faces: Vec<[u32; 3]>,
+    /// Per slot: the face's group (0 = none).
     pub(super) slot_groups: Vec<u32>,
     /// Per node: the group shared by all its faces when that is nonzero, else 0. A node
     /// with a group is never traversed within itself, nor against a node of the same group
     /// (every pair there is skipped by group anyway).
     pub(super) node_groups: Vec<u32>,
-    /// Per vertex: [`RING_CLOSED`], [`RING_OPEN`] or [`RING_OTHER`].
-    pub(super) ring_kind: Vec<u8>,
-    /// Per vertex `s`, its ring's wedges `(a, b, slot)` (face `(s, a, b)` in slot `slot`) in
-    /// `ring_links[ring_start[s]..ring_start[s + 1]]` (topology, for [`ring_is_embedded`]).
-    pub(super) ring_start: Vec<u32>,
-    pub(super) ring_links: Vec<[u32; 3]>,
-    /// Per node: its range in `patch_edges` when its faces form a topological disk of at
-    /// least [`MIN_PATCH`] faces (empty otherwise); see [`Traversal::patch_is_embedded`].
-    pub(super) patch_ranges: Vec<[u32; 2]>,
-    /// Boundary edges (vertex pairs) of the disk nodes, node after node.
-    pub(super) patch_edges: Vec<[u32; 2]>,
+    /// Whether some node has a nonzero group (otherwise the traversal skips the checks).
+    pub(super) grouped: bool,
     // Per-call buffers, reused.
     pub(super) boxes: Vec<Aabb3>,
     /// Per group of [`LEAF_SIZE`] slots (every leaf is one such group).
     pub(super) lanes: Vec<LeafBoxes>,
-    /// Per group of [`LEAF_SIZE`] slots: the faces' vertex ids and groups (topology).
-    pub(super) leaf_verts: Vec<LeafVerts>,
+    /// Per group of [`LEAF_SIZE`] slots: the faces' vertex ids and groups (topology; the
+    /// tree's own when there are no groups).
+    pub(super) leaf_verts: Arc<Vec<LeafVerts>>,
     pub(super) planes: Vec<FacePlane>,
     /// Per vertex, whether its ring is embedded ([`RING_YES`] / [`RING_NO`]), or
     /// [`RING_UNKNOWN`] until a pair sharing only that vertex asks (computed lazily: most
@@ -249,60 +365,28 @@ pub struct SelfIntersector {
 impl std::fmt::Debug for SelfIntersector {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("SelfIntersector")
-            .field("n_faces", &self.faces.len())
+            .field("n_faces", &self.tree.faces.len())
             .field("n_nodes", &self.nodes.len())
             .finish()
     }
 }
 
 impl SelfIntersector {
-    /// Builds the BVH over `mesh`'s faces.
+    /// An intersector for `mesh`'s faces: its topology's search tree, built here over the
+    /// current positions if no intersector for that topology was made before.
     pub fn new(mesh: &TriMesh) -> Self {
-        let n = mesh.n_faces();
-        let centroids: Vec<Vec3> = (0..n)
-            .map(|f| {
-                let [a, b, c] = mesh.triangle(f);
-                (a + b + c) / 3.0
-            })
-            .collect();
-        let mut order: Vec<u32> = (0..n as u32).collect();
-        let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 2);
-        if n > 0 {
-            let mut b = Builder {
-                mesh,
-                centroids: &centroids,
-                mark: vec![u32::MAX; n],
-                queued: vec![u32::MAX; n],
-                sorted: Vec::new(),
-                heap: std::collections::BinaryHeap::new(),
-                strays: [Vec::new(), Vec::new()],
-                notches: [Vec::new(), Vec::new()],
-            };
-            b.node(&mut nodes, &mut order, 0, n);
-        }
-        let mut slot_of = vec![0u32; n];
-        for (slot, &f) in order.iter().enumerate() {
-            slot_of[f as usize] = slot as u32;
-        }
-        let faces = mesh.faces().to_vec();
-        let slot_faces: Vec<[u32; 3]> = order.iter().map(|&f| faces[f as usize]).collect();
-        let ring_kind = ring_kinds(mesh);
-        let (ring_start, ring_links) = ring_links(mesh, |f| slot_of[f as usize]);
-        let (patch_ranges, patch_edges) = disk_patches(mesh, &nodes, &order, &slot_of, &ring_kind);
+        let topology = mesh.topology_arc();
+        let tree = Arc::clone(topology.search.0.get_or_init(|| Arc::new(SearchTree::build(mesh))));
+        let n = tree.faces.len();
         Self {
             slot_groups: vec![0; n],
-            leaf_verts: LeafVerts::of_slots(&slot_faces, &vec![0; n]),
-            node_groups: vec![0; nodes.len()],
-            ring_kind,
-            ring_start,
-            ring_links,
-            patch_ranges,
-            patch_edges,
-            faces,
+            leaf_verts: Arc::clone(&tree.leaf_verts),
+            node_groups: vec![0; tree.nodes.len()],
+            grouped: false,
+            nodes: tree.nodes.clone(),
             groups: Vec::new(),
-            nodes,
-            order,
-            slot_faces,
+            topology,
+            tree,
             boxes: Vec::new(),
             lanes: Vec::new(),
             planes: Vec::new(),
@@ -312,6 +396,12 @@ impl SelfIntersector {
         }
     }
 
+    /// Whether `mesh` has the faces the tree was made for (the same topology, or equal
+    /// faces).
+    pub(super) fn fits(&self, mesh: &TriMesh) -> bool {
+        std::ptr::eq(mesh.topology(), Arc::as_ptr(&self.topology)) || mesh.faces() == self.tree.faces.as_slice()
+    }
+
     /// Faces sharing a nonzero `groups[f]` are not tested against each other, e.g. the fan
     /// caps of closed holes when crossings of a cap with itself are not wanted (a fan's
     /// triangles share its centroid; over a tangled hole they can cross each other, and a
@@ -319,10 +409,11 @@ impl SelfIntersector {
     /// Grouped faces are still tested against every other face. A `groups` of the wrong
     /// length is ignored.
     pub fn with_groups(mut self, groups: Vec<u32>) -> Self {
-        if groups.len() == self.faces.len() {
-            self.slot_groups = self.order.iter().map(|&f| groups[f as usize]).collect();
-            self.leaf_verts = LeafVerts::of_slots(&self.slot_faces, &self.slot_groups);
+        if groups.len() == self.tree.faces.len() {
+            self.slot_groups = self.tree.order.iter().map(|&f| groups[f as usize]).collect();
+            self.leaf_verts = Arc::new(LeafVerts::of_slots(&self.tree.slot_faces, &self.slot_groups));
             self.node_groups = node_groups(&self.nodes, &self.slot_groups);
+            self.grouped = self.node_groups.iter().any(|&g| g != 0);
         }
         self.groups = groups;
         self
@@ -331,7 +422,7 @@ impl SelfIntersector {
     /// Crossings of `mesh` with itself. If `mesh` has the faces this intersector was built
     /// for, the BVH is refit to the new positions; otherwise it is rebuilt.
     pub fn find(&mut self, mesh: &TriMesh) -> SelfIntersections {
-        if mesh.faces() != self.faces.as_slice() {
+        if !self.fits(mesh) {
             let groups = std::mem::take(&mut self.groups);
             let mut fresh = Self::new(mesh);
             if groups.len() == mesh.n_faces() {
@@ -364,19 +455,20 @@ impl SelfIntersector {
         Traversal {
             mesh,
             nodes: &self.nodes,
-            order: &self.order,
-            slot_faces: &self.slot_faces,
+            order: &self.tree.order,
+            slot_faces: &self.tree.slot_faces,
             slot_groups: &self.slot_groups,
             node_groups: &self.node_groups,
+            grouped: self.grouped,
             lanes: &self.lanes,
             leaf_verts: &self.leaf_verts,
             planes: &self.planes,
             rings: &self.rings,
-            ring_kind: &self.ring_kind,
-            ring_start: &self.ring_start,
-            ring_links: &self.ring_links,
-            patch_ranges: &self.patch_ranges,
-            patch_edges: &self.patch_edges,
+            ring_kind: &self.tree.ring_kind,
+            ring_start: &self.tree.ring_start,
+            ring_links: &self.tree.ring_links,
+            patch_ranges: &self.tree.patch_ranges,
+            patch_edges: &self.tree.patch_edges,
             normals: &self.node_normals,
         }
     }
@@ -384,7 +476,7 @@ impl SelfIntersector {
     /// Face boxes and planes (slot order), node boxes (bottom-up) and vertex rings for the
     /// current positions.
     pub(super) fn refit(&mut self, mesh: &TriMesh) {
-        let n = self.order.len();
+        let n = self.tree.order.len();
         self.boxes.resize(n, Aabb3::EMPTY);
         self.planes.resize(n, FacePlane::ZERO);
         let n_groups = n.div_ceil(LEAF_SIZE);
@@ -392,7 +484,7 @@ impl SelfIntersector {
         self.group_normals.resize(n_groups, NormalBox::EMPTY);
         self.node_normals.resize(self.nodes.len(), NormalBox::EMPTY);
         let pos = mesh.positions();
-        let slot_faces = &self.slot_faces;
+        let slot_faces = &self.tree.slot_faces;
         // One parallel pass over leaf groups: f64 boxes and planes per slot, then the
         // group's f32 lanes (unused lanes keep their empty boxes) and normal box.
         self.lanes
@@ -436,15 +528,20 @@ impl SelfIntersector {
     }
 }
 
-/// Tree construction state: the mesh (for edge neighbours), face centroids and scratch.
+/// Tree construction state: edge neighbours (see [`face_neighbours`]), face centroids and
+/// scratch.
 pub(super) struct Builder<'a> {
-    pub(super) mesh: &'a TriMesh,
+    pub(super) nbrs: &'a [[u32; 3]],
+    /// Slot of `order[0]` of the slice this builder is given (nonzero for the builders of
+    /// second halves made on other threads).
+    pub(super) base: usize,
     pub(super) centroids: &'a [Vec3],
     /// Per face: `2 node + side` of the split being made.
     pub(super) mark: Vec<u32>,
     /// Per face: the node whose growing split has queued it.
     pub(super) queued: Vec<u32>,
-    pub(super) sorted: Vec<u32>,
+    /// Scratch of [`Self::partition`].
+    pub(super) scratch: Vec<u32>,
     pub(super) heap: std::collections::BinaryHeap<std::cmp::Reverse<(u64, u32)>>,
     pub(super) strays: [Vec<usize>; 2],
     pub(super) notches: [Vec<usize>; 2],
@@ -463,9 +560,20 @@ impl Builder<'_> {
     /// where the split line zigzags through a triangulated grid) are swapped pairwise with
     /// strays of the other side that have an edge neighbour there, so that more nodes are
     /// topological disks (see [`disk_patches`]); the sizes of both sides are unchanged.
-    pub(super) fn node(&mut self, nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize) -> u32 {
+    ///
+    /// At the first `par` levels, nodes of at least [`PAR_BUILD_MIN`] faces build their
+    /// second half on another thread (rayon); the tree is the same as without.
+    pub(super) fn node(
+        &mut self,
+        nodes: &mut Vec<Node>,
+        order: &mut [u32],
+        lists: &mut [&mut [u32]; 3],
+        lo: usize,
+        hi: usize,
+        par: u32,
+    ) -> u32 {
         let id = nodes.len();
-        nodes.push(Node { bbox: Aabb3::EMPTY, a: lo as u32, b: hi as u32, leaf: true });
+        nodes.push(Node { bbox: Aabb3::EMPTY, a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true });
         if hi - lo <= LEAF_SIZE {
             return id as u32;
         }
@@ -485,33 +593,74 @@ impl Builder<'_> {
         };
         let n_leaves = (hi - lo).div_ceil(LEAF_SIZE);
         let mid = lo + (n_leaves / 2) * LEAF_SIZE;
-        self.grow_split(order, lo, mid, hi, axis, id as u32);
+        self.grow_split(order, &lists[axis][lo..hi], lo, mid, axis, id as u32);
         self.swap_strays(order, lo, mid, hi, id as u32);
-        let l = self.node(nodes, order, lo, mid);
-        let r = self.node(nodes, order, mid, hi);
+        for list in lists.iter_mut() {
+            self.partition(&mut list[lo..hi], 2 * id as u32);
+        }
+        let (l, r) = if par > 0 && hi - lo >= PAR_BUILD_MIN {
+            // The second half on another thread, into its own node list and scratch (the
+            // halves share no face), appended after the first half's subtree: the same
+            // tree, numbered as the sequential build numbers it.
+            let (first, second) = order[..hi].split_at_mut(mid);
+            let [x, y, z] = lists.each_mut().map(|l| {
+                let list: &mut [u32] = std::mem::take(l);
+                list[..hi].split_at_mut(mid)
+            });
+            let (mut first_lists, mut second_lists) = ([x.0, y.0, z.0], [x.1, y.1, z.1]);
+            let mut other = Builder {
+                nbrs: self.nbrs,
+                centroids: self.centroids,
+                base: self.base + mid,
+                mark: vec![u32::MAX; self.mark.len()],
+                queued: vec![u32::MAX; self.queued.len()],
+                scratch: Vec::new(),
+                heap: std::collections::BinaryHeap::new(),
+                strays: [Vec::new(), Vec::new()],
+                notches: [Vec::new(), Vec::new()],
+            };
+            let mut second_nodes = Vec::with_capacity(2 * (hi - mid) / LEAF_SIZE + 2);
+            let (l, r) = rayon::join(
+                || self.node(nodes, first, &mut first_lists, lo, mid, par - 1),
+                || other.node(&mut second_nodes, second, &mut second_lists, 0, hi - mid, par - 1),
+            );
+            let offset = nodes.len() as u32;
+            nodes.extend(second_nodes.into_iter().map(|nd| {
+                if nd.leaf {
+                    nd
+                } else {
+                    Node { a: nd.a + offset, b: nd.b + offset, ..nd }
+                }
+            }));
+            (l, r + offset)
+        } else {
+            (self.node(nodes, order, lists, lo, mid, 0), self.node(nodes, order, lists, mid, hi, 0))
+        };
         nodes[id] = Node { bbox: Aabb3::EMPTY, a: l, b: r, leaf: false };
         id as u32
     }
 
-    /// Splits `order[lo..hi]` into a first part of `mid − lo` faces grown face by face
+    /// Splits `order[lo..hi]` (also given as `sorted`, the same faces sorted by
+    /// [`axis_key`] along `axis`) into a first part of `mid − lo` faces grown face by face
     /// across edges from the face with the smallest centroid coordinate along `axis`, always
     /// taking the queued face that is smallest along `axis` (so the cut follows the median
     /// plane, as in a median split, while the first part stays edge-connected where the
     /// faces allow); when the queue runs dry (another component), growth restarts from the
     /// smallest face not taken.
-    pub(super) fn grow_split(&mut self, order: &mut [u32], lo: usize, mid: usize, hi: usize, axis: usize, id: u32) {
-        let topo = self.mesh.topology();
-        let (face_edges, edge_faces) = (topo.face_edges(), topo.edge_faces());
+    pub(super) fn grow_split(
+        &mut self,
+        order: &mut [u32],
+        sorted: &[u32],
+        lo: usize,
+        mid: usize,
+        axis: usize,
+        id: u32,
+    ) {
+        let nbrs = self.nbrs;
         let centroids = self.centroids;
-        let key = |f: u32| {
-            let b = centroids[f as usize][axis].to_bits();
-            (if b >> 63 == 1 { !b } else { b | (1 << 63) }, f)
-        };
+        let key = |f: u32| axis_key(centroids, axis, f);
         let (unassigned, left) = (2 * id + 1, 2 * id);
-        self.sorted.clear();
-        self.sorted.extend_from_slice(&order[lo..hi]);
-        self.sorted.sort_unstable_by_key(|&f| key(f));
-        for &f in &self.sorted {
+        for &f in sorted {
             self.mark[f as usize] = unassigned;
         }
         self.heap.clear();
@@ -520,10 +669,10 @@ impl Builder<'_> {
             let f = match self.heap.pop() {
                 Some(std::cmp::Reverse((_, f))) => f,
                 None => {
-                    while self.mark[self.sorted[next_seed] as usize] != unassigned {
+                    while self.mark[sorted[next_seed] as usize] != unassigned {
                         next_seed += 1;
                     }
-                    self.sorted[next_seed]
+                    sorted[next_seed]
                 }
             };
             if self.mark[f as usize] != unassigned {
@@ -531,9 +680,7 @@ impl Builder<'_> {
             }
             self.mark[f as usize] = left;
             taken += 1;
-            for e in face_edges[f as usize] {
-                let [g0, g1] = edge_faces[e as usize];
-                let g = if g0 == f { g1 } else { g0 };
+            for g in nbrs[f as usize] {
                 if g != NO_FACE && self.mark[g as usize] == unassigned && self.queued[g as usize] != id {
                     self.queued[g as usize] = id;
                     self.heap.push(std::cmp::Reverse(key(g)));
@@ -541,7 +688,7 @@ impl Builder<'_> {
             }
         }
         let (mut a, mut b) = (lo, mid);
-        for &f in &self.sorted {
+        for &f in sorted {
             if self.mark[f as usize] == left {
                 order[a] = f;
                 a += 1;
@@ -552,9 +699,25 @@ impl Builder<'_> {
         }
     }
 
+    /// Reorders `list` (a node's faces) so that the faces marked `left` come first, keeping
+    /// the order within each part: a list sorted along an axis stays sorted in both halves.
+    pub(super) fn partition(&mut self, list: &mut [u32], left: u32) {
+        self.scratch.clear();
+        let mut k = 0;
+        for i in 0..list.len() {
+            let f = list[i];
+            if self.mark[f as usize] == left {
+                list[k] = f;
+                k += 1;
+            } else {
+                self.scratch.push(f);
+            }
+        }
+        list[k..].copy_from_slice(&self.scratch);
+    }
+
     pub(super) fn swap_strays(&mut self, order: &mut [u32], lo: usize, mid: usize, hi: usize, id: u32) {
-        let topo = self.mesh.topology();
-        let (face_edges, edge_faces) = (topo.face_edges(), topo.edge_faces());
+        let nbrs = self.nbrs;
         for (k, &f) in order[lo..hi].iter().enumerate() {
             self.mark[f as usize] = 2 * id + (lo + k >= mid) as u32;
         }
@@ -565,9 +728,7 @@ impl Builder<'_> {
             let count = |f: u32| {
                 let own = mark[f as usize];
                 let (mut same, mut other) = (0, 0);
-                for e in face_edges[f as usize] {
-                    let [g0, g1] = edge_faces[e as usize];
-                    let g = if g0 == f { g1 } else { g0 };
+                for g in nbrs[f as usize] {
                     if g != NO_FACE {
                         let m = mark[g as usize];
                         same += (m == own) as u32;

@@ -26,13 +26,14 @@
 
 use std::cmp::Ordering;
 use std::sync::atomic::{AtomicU8, Ordering as AtomicOrdering};
+use std::sync::{Arc, OnceLock};
 
 use rayon::prelude::*;
 use wide::{f32x4, i32x4, CmpEq, CmpLe};
 
 use crate::mesh::TriMesh;
 use crate::predicates::{orient3d_sos, orient3d_value};
-use crate::topology::NO_FACE;
+use crate::topology::{Topology, NO_FACE};
 use crate::Vec3;
 
 /// A crossing of mesh edge `edge` through the interior of face `face`.
@@ -106,6 +107,7 @@ mod rings;
 mod tests;
 mod traversal;
 
+pub(crate) use bvh::SearchSlot;
 pub use bvh::SelfIntersector;
 pub use pair::{barycentric, edge_parameter};
 pub use ray::{ray_winding_brute, AxisRay};

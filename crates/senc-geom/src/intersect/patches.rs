@@ -69,14 +69,12 @@ pub(super) const MIN_PATCH: u32 = 16;
 /// not empty and its Euler characteristic `V − E + F` is 1 (`2 − 2g − b = 1` with `b ≥ 1`
 /// gives genus 0 and one boundary loop).
 pub(super) fn disk_patches(
-    mesh: &TriMesh,
+    n_vertices: usize,
     nodes: &[Node],
-    order: &[u32],
-    slot_of: &[u32],
+    slot_faces: &[[u32; 3]],
+    slot_nbrs: &[[u32; 3]],
     kinds: &[u8],
 ) -> (Vec<[u32; 2]>, Vec<[u32; 2]>) {
-    let topo = mesh.topology();
-    let (faces, face_edges, edge_faces) = (mesh.faces(), topo.face_edges(), topo.edge_faces());
     let mut range = vec![[0u32; 2]; nodes.len()];
     for i in (0..nodes.len()).rev() {
         let nd = nodes[i];
@@ -84,9 +82,9 @@ pub(super) fn disk_patches(
     }
     let mut out = vec![[0u32; 2]; nodes.len()];
     let mut edges: Vec<[u32; 2]> = Vec::new();
-    let mut deg = vec![0u32; mesh.n_vertices()];
-    let mut seen = vec![u32::MAX; mesh.n_vertices()];
-    let mut reached_by = vec![u32::MAX; faces.len()];
+    let mut deg = vec![0u32; n_vertices];
+    let mut seen = vec![u32::MAX; n_vertices];
+    let mut reached_by = vec![u32::MAX; slot_faces.len()];
     let (mut verts, mut stack) = (Vec::new(), Vec::new());
     for (id, &[lo, hi]) in range.iter().enumerate() {
         let id32 = id as u32;
@@ -95,20 +93,13 @@ pub(super) fn disk_patches(
         if hi - lo < MIN_PATCH {
             continue;
         }
-        let inside = |f: u32| f != NO_FACE && (lo..hi).contains(&slot_of[f as usize]);
-        let other = |f: u32, e: u32| {
-            let [g0, g1] = edge_faces[e as usize];
-            if g0 == f {
-                g1
-            } else {
-                g0
-            }
-        };
+        // Slots are contiguous per node; `NO_FACE` is never inside.
+        let inside = |slot: u32| (lo..hi).contains(&slot);
         let mut half_interior = 0usize;
         let mut manifold = true;
         verts.clear();
-        for &f in &order[lo as usize..hi as usize] {
-            let fv = faces[f as usize];
+        for slot in lo as usize..hi as usize {
+            let fv = slot_faces[slot];
             for k in 0..3 {
                 let v = fv[k] as usize;
                 if seen[v] != id32 {
@@ -116,7 +107,7 @@ pub(super) fn disk_patches(
                     verts.push(v);
                     manifold &= kinds[v] != RING_OTHER;
                 }
-                if inside(other(f, face_edges[f as usize][k])) {
+                if inside(slot_nbrs[slot][k]) {
                     half_interior += 1;
                 } else {
                     let (a, b) = (fv[(k + 1) % 3], fv[(k + 2) % 3]);
@@ -134,14 +125,12 @@ pub(super) fn disk_patches(
         let euler = verts.len() as i64 - (half_interior / 2 + n_boundary) as i64 + (hi - lo) as i64;
         let mut disk = manifold && euler == 1 && n_boundary > 0;
         if disk {
-            let f0 = order[lo as usize];
-            reached_by[f0 as usize] = id32;
+            reached_by[lo as usize] = id32;
             stack.clear();
-            stack.push(f0);
+            stack.push(lo);
             let mut reached = 1;
-            while let Some(f) = stack.pop() {
-                for e in face_edges[f as usize] {
-                    let g = other(f, e);
+            while let Some(slot) = stack.pop() {
+                for g in slot_nbrs[slot as usize] {
                     if inside(g) && reached_by[g as usize] != id32 {
                         reached_by[g as usize] = id32;
                         reached += 1;
@@ -158,6 +147,27 @@ pub(super) fn disk_patches(
         }
     }
     (out, edges)
+}
+
+/// Per face, the face across each of its edges (`[k]`: across the edge opposite vertex `k`,
+/// see [`crate::Topology::face_edges`]), or [`NO_FACE`] at a boundary edge. Topology only.
+pub(super) fn face_neighbours(mesh: &TriMesh) -> Vec<[u32; 3]> {
+    let topo = mesh.topology();
+    let edge_faces = topo.edge_faces();
+    topo.face_edges()
+        .iter()
+        .enumerate()
+        .map(|(f, es)| {
+            es.map(|e| {
+                let [g0, g1] = edge_faces[e as usize];
+                if g0 == f as u32 {
+                    g1
+                } else {
+                    g0
+                }
+            })
+        })
+        .collect()
 }
 
 /// A boundary edge of a patch projected to the plane: its vertex ids, end points and

@@ -131,7 +131,7 @@ impl SelfIntersector {
     /// virtual fans over `open_loops` (holes left open; pass `&[]` when there are none), so
     /// that the count is the winding number of the surface closed by those fans.
     pub fn ray_winding(&self, mesh: &TriMesh, ray: &AxisRay, skip: u32, open_loops: &[Vec<u32>]) -> Option<i64> {
-        if self.nodes.is_empty() || mesh.faces() != self.faces.as_slice() || self.boxes.len() != self.order.len() {
+        if self.nodes.is_empty() || !self.fits(mesh) || self.boxes.len() != self.tree.order.len() {
             return ray_winding_brute(mesh, ray, skip, open_loops);
         }
         let root = self.nodes[0].bbox;
@@ -145,7 +145,7 @@ impl SelfIntersector {
             }
             if nd.leaf {
                 for slot in nd.a as usize..nd.b as usize {
-                    let f = self.order[slot];
+                    let f = self.tree.order[slot];
                     if f != skip && ray.may_hit(&self.boxes[slot]) {
                         count += face_crossing(mesh, ray, far, f as usize)?;
                     }

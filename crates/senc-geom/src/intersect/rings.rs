@@ -60,21 +60,20 @@ pub(super) fn ring_kinds(mesh: &TriMesh) -> Vec<u8> {
 /// tessellations, where exact predicates are slow.
 pub fn embedded_rings(mesh: &TriMesh) -> Vec<bool> {
     let kinds = ring_kinds(mesh);
-    let normals: Vec<Vec3> = (0..mesh.n_faces()).map(|f| mesh.face_normal_scaled(f)).collect();
-    let (start, links) = ring_links(mesh, |f| f);
+    let (start, links) = ring_links(mesh);
     (0..mesh.n_vertices() as u32)
         .into_par_iter()
         .with_min_len(512)
         .map(|s| {
             let links = &links[start[s as usize] as usize..start[s as usize + 1] as usize];
-            ring_is_embedded(mesh.positions(), s, kinds[s as usize], links, |f| normals[f as usize])
+            ring_is_embedded(mesh.positions(), s, kinds[s as usize], links)
         })
         .collect()
 }
 
-/// Per vertex `s`, the wedges `(a, b, id(f))` of the faces `f = (s, a, b)` of its ring (in
-/// the mesh's vertex-face order), as `links[start[s]..start[s + 1]]`. Topology only.
-pub(super) fn ring_links(mesh: &TriMesh, id: impl Fn(u32) -> u32) -> (Vec<u32>, Vec<[u32; 3]>) {
+/// Per vertex `s`, the wedges `(a, b)` of the faces `(s, a, b)` of its ring (in the mesh's
+/// vertex-face order), as `links[start[s]..start[s + 1]]`. Topology only.
+pub(super) fn ring_links(mesh: &TriMesh) -> (Vec<u32>, Vec<[u32; 2]>) {
     let topo = mesh.topology();
     let faces = mesh.faces();
     let mut start = Vec::with_capacity(mesh.n_vertices() + 1);
@@ -84,7 +83,7 @@ pub(super) fn ring_links(mesh: &TriMesh, id: impl Fn(u32) -> u32) -> (Vec<u32>, 
         for &f in topo.vertex_faces(s) {
             let fv = faces[f as usize];
             let k = fv.iter().position(|&v| v == s).unwrap_or(0);
-            links.push([fv[(k + 1) % 3], fv[(k + 2) % 3], id(f)]);
+            links.push([fv[(k + 1) % 3], fv[(k + 2) % 3]]);
         }
         start.push(links.len() as u32);
     }
@@ -95,9 +94,11 @@ pub(super) fn ring_links(mesh: &TriMesh, id: impl Fn(u32) -> u32) -> (Vec<u32>, 
 /// projected coordinates, so a wedge accepted in floats is a true, positive wedge.
 pub(super) const MIN_WEDGE_SIN: f64 = 1e-9;
 
-/// Whether the ring of `s` is embedded in the projection along its summed normal `n`
-/// (`links` are its wedges `(a, b, id)` from [`ring_links`], `normal(id)` gives the scaled
-/// normal of face `(s, a, b)`): every face `(s, a, b)` spans a wedge of
+/// Whether the ring of `s` is embedded in the projection along its summed normal
+/// `n = Σ (a − s) × (b − s)` (`links` are its wedges `(a, b)` from [`ring_links`]; the
+/// sum is taken from the positions that the wedge test reads anyway, so the test touches
+/// no per-face data; any direction `n` makes the test sound, this one makes it pass on
+/// smooth rings): every face `(s, a, b)` spans a wedge of
 /// angle in (1e-9, π − 1e-9) around `s`, and the wedges cover the plane once (closed fan)
 /// or less than once with a margin of 1e-6 rad (open fan).
 ///
@@ -112,17 +113,12 @@ pub(super) const MIN_WEDGE_SIN: f64 = 1e-9;
 /// to the true one because every edge of that polygon stays ≥ 1e-9 · (shorter side) away
 /// from `s`, far beyond the rounding. The fans cover the plane once exactly when it is 1.
 /// Open fans (boundary vertices) add the angles with `atan2`.
-pub(super) fn ring_is_embedded(
-    pos: &[Vec3],
-    s: u32,
-    kind: u8,
-    links: &[[u32; 3]],
-    normal: impl Fn(u32) -> Vec3,
-) -> bool {
+pub(super) fn ring_is_embedded(pos: &[Vec3], s: u32, kind: u8, links: &[[u32; 2]]) -> bool {
     if kind == RING_OTHER {
         return false;
     }
-    let n: Vec3 = links.iter().map(|l| normal(l[2])).sum();
+    let ps = pos[s as usize];
+    let n: Vec3 = links.iter().map(|&[a, b]| (pos[a as usize] - ps).cross(&(pos[b as usize] - ps))).sum();
     let nn2 = n.norm_squared();
     if !(nn2.is_finite() && nn2 > 0.0) {
         return false;
@@ -134,10 +130,9 @@ pub(super) fn ring_is_embedded(
     let u = n.cross(&helper);
     let w = n.cross(&u);
     let u = u * nn2.sqrt();
-    let ps = pos[s as usize];
     let mut winding = 0u32;
     let mut total = 0.0;
-    for &[a, b, _] in links {
+    for &[a, b] in links {
         let (da, db) = (pos[a as usize] - ps, pos[b as usize] - ps);
         let (xa, ya) = (da.dot(&u), da.dot(&w));
         let (xb, yb) = (db.dot(&u), db.dot(&w));

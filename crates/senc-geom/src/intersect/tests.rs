@@ -231,7 +231,7 @@ fn embedded_patches_are_skipped_and_overlapping_ones_are_not() {
     let strip = crossing_spiral_strip(240, 6);
     let mut ix = SelfIntersector::new(&strip);
     let found = ix.find(&strip);
-    assert!(ix.patch_ranges[0][0] < ix.patch_ranges[0][1], "the strip is one disk");
+    assert!(ix.tree.patch_ranges[0][0] < ix.tree.patch_ranges[0][1], "the strip is one disk");
     assert!(ix.node_normals[0].direction().is_some(), "the strip's normals lie in a narrow cone");
     let skipped = skipped_nodes(&ix, &strip);
     assert!(!skipped.contains(&0) && skipped.len() > 5, "{skipped:?}");
@@ -286,6 +286,19 @@ fn nodes_of_one_fan_are_skipped_but_fans_still_meet_other_faces() {
 }
 
 #[test]
+fn parallel_tree_build_gives_the_sequential_tree() {
+    let m = shapes::garment_benchmark().unwrap();
+    assert!(m.n_faces() >= 4 * PAR_BUILD_MIN, "{} faces: too few to build in parallel", m.n_faces());
+    let centroids: Vec<Vec3> = (0..m.n_faces()).map(|f| m.triangle(f).iter().sum::<Vec3>() / 3.0).collect();
+    let nbrs = face_neighbours(&m);
+    let (seq_nodes, seq_order) = build_tree(&centroids, &nbrs, 0);
+    let (par_nodes, par_order) = build_tree(&centroids, &nbrs, PAR_BUILD_DEPTH);
+    assert_eq!(seq_order, par_order);
+    let shape = |n: &[Node]| n.iter().map(|nd| (nd.a, nd.b, nd.leaf)).collect::<Vec<_>>();
+    assert_eq!(shape(&seq_nodes), shape(&par_nodes));
+}
+
+#[test]
 fn grown_splits_make_most_nodes_disks() {
     // A sleeve pushed into a torso (grid-made): with halves grown across edges, 85% of
     // the nodes large enough to be tried are topological disks (79% with plain median
@@ -298,7 +311,7 @@ fn grown_splits_make_most_nodes_disks() {
         sizes[i] = if nd.leaf { nd.b - nd.a } else { sizes[nd.a as usize] + sizes[nd.b as usize] };
     }
     let tried: Vec<usize> = (0..ix.nodes.len()).filter(|&n| sizes[n] >= MIN_PATCH).collect();
-    let disks = tried.iter().filter(|&&n| ix.patch_ranges[n][0] < ix.patch_ranges[n][1]).count();
+    let disks = tried.iter().filter(|&&n| ix.tree.patch_ranges[n][0] < ix.tree.patch_ranges[n][1]).count();
     assert!(disks * 100 >= tried.len() * 83, "{disks} of {} nodes are disks", tried.len());
 }
 

@@ -26,13 +26,15 @@ pub(super) struct Traversal<'a> {
     pub(super) slot_faces: &'a [[u32; 3]],
     pub(super) slot_groups: &'a [u32],
     pub(super) node_groups: &'a [u32],
+    /// Whether any entry of `node_groups` is nonzero.
+    pub(super) grouped: bool,
     pub(super) lanes: &'a [LeafBoxes],
     pub(super) leaf_verts: &'a [LeafVerts],
     pub(super) planes: &'a [FacePlane],
     pub(super) rings: &'a [AtomicU8],
     pub(super) ring_kind: &'a [u8],
     pub(super) ring_start: &'a [u32],
-    pub(super) ring_links: &'a [[u32; 3]],
+    pub(super) ring_links: &'a [[u32; 2]],
     pub(super) patch_ranges: &'a [[u32; 2]],
     pub(super) patch_edges: &'a [[u32; 2]],
     pub(super) normals: &'a [NormalBox],
@@ -49,12 +51,9 @@ impl Traversal<'_> {
             RING_YES => true,
             RING_NO => false,
             _ => {
-                let planes = self.planes;
                 let links =
                     &self.ring_links[self.ring_start[s as usize] as usize..self.ring_start[s as usize + 1] as usize];
-                let r = ring_is_embedded(self.mesh.positions(), s, self.ring_kind[s as usize], links, |slot| {
-                    planes[slot as usize].n
-                });
+                let r = ring_is_embedded(self.mesh.positions(), s, self.ring_kind[s as usize], links);
                 cell.store(if r { RING_YES } else { RING_NO }, AtomicOrdering::Relaxed);
                 r
             }
@@ -64,6 +63,9 @@ impl Traversal<'_> {
     /// Whether all faces of nodes `x` and `y` have one nonzero group.
     #[inline]
     pub(super) fn same_group(&self, x: u32, y: u32) -> bool {
+        if !self.grouped {
+            return false;
+        }
         let g = self.node_groups[x as usize];
         g != 0 && g == self.node_groups[y as usize]
     }
@@ -163,7 +165,7 @@ impl Traversal<'_> {
         match t {
             Task::Within(n) => {
                 let nd = nodes[n as usize];
-                if self.node_groups[n as usize] != 0 {
+                if self.grouped && self.node_groups[n as usize] != 0 {
                     return true;
                 }
                 if nd.leaf {
@@ -212,7 +214,7 @@ impl Traversal<'_> {
             match t {
                 Task::Within(n) => {
                     let nd = nodes[n as usize];
-                    if self.node_groups[n as usize] != 0 {
+                    if self.grouped && self.node_groups[n as usize] != 0 {
                         continue;
                     }
                     if nd.leaf {
