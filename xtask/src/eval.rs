@@ -113,10 +113,17 @@ pub fn prepare_garments(garment: &Path, config: &Path) -> Result<Vec<PathBuf>> {
             let body = senc_scene::BodyAsset::load(&scene.body)?;
             let fitted = fit_obj(&file, &select, 1.0, &body, &FitOptions::default())
                 .with_context(|| format!("fitting {} to the body", garment.display()))?;
+            // Named by the file too, so that two files with the same stem do not collide.
+            let tag = {
+                use std::hash::{Hash, Hasher};
+                let mut h = std::collections::hash_map::DefaultHasher::new();
+                file.canonicalize().unwrap_or_else(|_| file.clone()).hash(&mut h);
+                h.finish()
+            };
             fitted
                 .iter()
                 .map(|(asset, rep)| {
-                    let out = std::env::temp_dir().join(format!("senc-fitted-{}.msgpack", asset.name));
+                    let out = std::env::temp_dir().join(format!("senc-fitted-{}-{tag:016x}.msgpack", asset.name));
                     senc_scene::assets::write_msgpack(&out, asset)?;
                     eprintln!("fitted {}", describe(asset, rep));
                     Ok(out)
@@ -232,4 +239,51 @@ pub fn probe(args: ProbeArgs) -> Result<()> {
     }
     print!("{}", t.render());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::fmt::Write as _;
+
+    use super::*;
+
+    fn root() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+    }
+
+    /// Two copies of the CI skirt in one OBJ, one moved 1 m aside: `#each` fits both, a
+    /// name picks its group, an unknown extension is refused with the forms to use.
+    #[test]
+    fn garment_arguments_fit_each_named_or_every_component() {
+        let skirt = senc_scene::GarmentAsset::load(root().join("data/garments/skirt_coarse.msgpack")).unwrap();
+        let mut text = String::new();
+        for shift in [0.0, 1.0] {
+            for p in &skirt.positions {
+                let _ = writeln!(text, "v {} {} {}", p.x + shift, p.y, p.z);
+            }
+        }
+        let n = skirt.positions.len() as u32;
+        for (k, name) in ["first", "second"].iter().enumerate() {
+            let _ = writeln!(text, "o {name}");
+            for f in &skirt.faces {
+                let o = 1 + k as u32 * n;
+                let _ = writeln!(text, "f {} {} {}", f[0] + o, f[1] + o, f[2] + o);
+            }
+        }
+        let dir = std::env::temp_dir().join(format!("senc-eval-garments-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let obj = dir.join("two.obj");
+        std::fs::write(&obj, text).unwrap();
+        let config = root().join("configs/smoke.toml");
+        let each = prepare_garments(&PathBuf::from(format!("{}#each", obj.display())), &config).unwrap();
+        assert_eq!(each.len(), 2);
+        assert_ne!(each[0], each[1], "each garment has its own asset file");
+        let named = prepare_garments(&PathBuf::from(format!("{}#second", obj.display())), &config).unwrap();
+        assert_eq!(named.len(), 1);
+        let fitted = senc_scene::GarmentAsset::load(&named[0]).unwrap();
+        assert_eq!(fitted.faces.len(), skirt.faces.len());
+        let err = prepare_garments(&dir.join("two.txt"), &config).unwrap_err().to_string();
+        assert!(err.contains("give an OBJ"), "{err}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
