@@ -97,21 +97,23 @@ pub struct MotionsConfig {
     pub test: Vec<PathBuf>,
 }
 
-/// Cloth material as plain numbers. Give either `lame_mu` and `lame_lambda` or `young` and
-/// `poisson`. senc-energy turns this into its own material type.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// The `[scene.material]` table as written: any of the cloth's numbers, each left out
+/// taking HOOD's default, which senc-energy's `Material` holds (senc-train builds that
+/// material from this table). Give either `lame_mu` and `lame_lambda` or `young` and
+/// `poisson`, or neither.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialConfig {
-    /// Area density ρ, kg/m². Default 0.20022.
-    #[serde(default = "d_density")]
-    pub density: f64,
-    /// Thickness h, m. Default 4.7e-4.
-    #[serde(default = "d_thickness")]
-    pub thickness: f64,
-    /// Lamé μ, Pa. Default 23600 when neither pair is given.
+    /// Area density ρ, kg/m².
+    #[serde(default)]
+    pub density: Option<f64>,
+    /// Thickness h, m.
+    #[serde(default)]
+    pub thickness: Option<f64>,
+    /// Lamé μ, Pa.
     #[serde(default)]
     pub lame_mu: Option<f64>,
-    /// Lamé λ, Pa. Default 44400 when neither pair is given.
+    /// Lamé λ, Pa.
     #[serde(default)]
     pub lame_lambda: Option<f64>,
     /// Young's modulus E, Pa (instead of the Lamé pair).
@@ -120,66 +122,40 @@ pub struct MaterialConfig {
     /// Poisson's ratio ν (instead of the Lamé pair), in (−1, 0.5).
     #[serde(default)]
     pub poisson: Option<f64>,
-    /// Bending stiffness k_b, N·m. Default 3.9626e-5.
-    #[serde(default = "d_bending")]
-    pub bending: f64,
-}
-
-fn d_density() -> f64 {
-    0.20022
-}
-fn d_thickness() -> f64 {
-    4.7e-4
-}
-fn d_bending() -> f64 {
-    3.9626e-5
-}
-
-impl Default for MaterialConfig {
-    fn default() -> Self {
-        Self {
-            density: d_density(),
-            thickness: d_thickness(),
-            lame_mu: None,
-            lame_lambda: None,
-            young: None,
-            poisson: None,
-            bending: d_bending(),
-        }
-    }
+    /// Bending stiffness k_b, N·m.
+    #[serde(default)]
+    pub bending: Option<f64>,
 }
 
 impl MaterialConfig {
-    /// Lamé parameters (μ, λ) in Pa. From Young/Poisson HOOD's conversion is used:
-    /// `μ = E / (2(1 + ν))`, `λ = E ν / ((1 + ν)(1 − 2ν))`.
-    pub fn lame(&self) -> Result<(f64, f64), SceneError> {
-        match (self.lame_mu, self.lame_lambda, self.young, self.poisson) {
-            (None, None, None, None) => Ok((23600.0, 44400.0)),
-            (Some(mu), Some(la), None, None) => Ok((mu, la)),
-            (None, None, Some(e), Some(nu)) if nu > -1.0 && nu < 0.5 => {
-                Ok((e / (2.0 * (1.0 + nu)), e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))))
-            }
-            (None, None, Some(_), Some(nu)) => {
-                Err(SceneError::Invalid(format!("material.poisson = {nu} must lie in (-1, 0.5)")))
-            }
-            _ => Err(SceneError::Invalid(
-                "material: give both lame_mu and lame_lambda, or both young and poisson, not a mix".into(),
-            )),
-        }
-    }
-
-    /// Checks that every number is finite and positive where it must be.
+    /// Checks that the stiffness is given as one complete pair (or not at all) and that
+    /// every number given is finite and in its range.
     pub fn validate(&self) -> Result<(), SceneError> {
-        let (mu, la) = self.lame()?;
-        for (k, v) in
-            [("density", self.density), ("thickness", self.thickness), ("bending", self.bending), ("lame_mu", mu)]
-        {
-            if !(v > 0.0 && v.is_finite()) {
+        match (self.lame_mu, self.lame_lambda, self.young, self.poisson) {
+            (None, None, None, None) | (Some(_), Some(_), None, None) | (None, None, Some(_), Some(_)) => {}
+            _ => {
+                return Err(SceneError::Invalid(
+                    "material: give both lame_mu and lame_lambda, or both young and poisson, not a mix".into(),
+                ))
+            }
+        }
+        let positive = [
+            ("density", self.density),
+            ("thickness", self.thickness),
+            ("bending", self.bending),
+            ("lame_mu", self.lame_mu),
+            ("young", self.young),
+        ];
+        for (k, v) in positive {
+            if let Some(v) = v.filter(|v| !(*v > 0.0 && v.is_finite())) {
                 return Err(SceneError::Invalid(format!("material.{k} = {v} must be a positive number")));
             }
         }
-        if !(la >= 0.0 && la.is_finite()) {
-            return Err(SceneError::Invalid(format!("material lame_lambda = {la} must be a non-negative number")));
+        if let Some(la) = self.lame_lambda.filter(|la| !(*la >= 0.0 && la.is_finite())) {
+            return Err(SceneError::Invalid(format!("material.lame_lambda = {la} must be a non-negative number")));
+        }
+        if let Some(nu) = self.poisson.filter(|nu| !(*nu > -1.0 && *nu < 0.5)) {
+            return Err(SceneError::Invalid(format!("material.poisson = {nu} must lie in (-1, 0.5)")));
         }
         Ok(())
     }

@@ -251,12 +251,18 @@ fn config_refuses_unknown_keys_naming_them() {
 }
 
 #[test]
-fn material_from_young_poisson() {
-    let m = senc_scene::config::MaterialConfig { young: Some(1000.0), poisson: Some(0.25), ..Default::default() };
-    let (mu, la) = m.lame().unwrap();
-    assert!((mu - 400.0).abs() < 1e-9 && (la - 400.0).abs() < 1e-9);
-    let m = senc_scene::config::MaterialConfig { young: Some(1000.0), lame_mu: Some(3.0), ..Default::default() };
-    assert!(m.lame().is_err());
+fn material_tables_give_one_stiffness_pair_in_range() {
+    use senc_scene::config::MaterialConfig;
+    MaterialConfig { young: Some(1000.0), poisson: Some(0.25), ..Default::default() }.validate().unwrap();
+    MaterialConfig::default().validate().unwrap();
+    let mixed = MaterialConfig { young: Some(1000.0), lame_mu: Some(3.0), ..Default::default() };
+    assert!(mixed.validate().unwrap_err().to_string().contains("not a mix"));
+    let half = MaterialConfig { lame_mu: Some(3.0), ..Default::default() };
+    assert!(half.validate().unwrap_err().to_string().contains("not a mix"));
+    let nu = MaterialConfig { young: Some(1000.0), poisson: Some(0.5), ..Default::default() };
+    assert!(nu.validate().unwrap_err().to_string().contains("poisson"));
+    let rho = MaterialConfig { density: Some(f64::NAN), ..Default::default() };
+    assert!(rho.validate().unwrap_err().to_string().contains("density"));
 }
 
 const GARMENTS: &[(&str, &[&str])] = &[

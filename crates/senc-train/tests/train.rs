@@ -568,3 +568,22 @@ fn committed_checkpoints_load_and_give_their_recorded_rollout() {
         assert!(err < 1e-3, "{name}: mean displacement after 3 frames {mean:?}, recorded {want:?}");
     }
 }
+
+/// A `[scene.material]` table becomes one energy material: HOOD's defaults where it gives
+/// nothing, its own numbers where it does, Young's modulus and Poisson's ratio converted.
+#[test]
+fn material_tables_fill_hoods_defaults_and_convert_young_and_poisson() {
+    use senc_energy::Material;
+    use senc_scene::config::MaterialConfig;
+    use senc_train::trainer::material_from_config;
+    assert_eq!(material_from_config(&MaterialConfig::default()).unwrap(), Material::default());
+    let ep = material_from_config(&MaterialConfig { young: Some(1000.0), poisson: Some(0.25), ..Default::default() })
+        .unwrap();
+    assert!((ep.mu - 400.0).abs() < 1e-9 && (ep.lambda - 400.0).abs() < 1e-9);
+    assert_eq!(ep.density, Material::default().density);
+    let given = MaterialConfig { density: Some(0.3), bending: Some(1e-4), thickness: Some(1e-3), ..Default::default() };
+    let m = material_from_config(&given).unwrap();
+    assert_eq!((m.density, m.bending_stiffness, m.thickness, m.mu), (0.3, 1e-4, 1e-3, Material::default().mu));
+    let mixed = MaterialConfig { young: Some(1000.0), lame_mu: Some(3.0), ..Default::default() };
+    assert!(material_from_config(&mixed).is_err());
+}

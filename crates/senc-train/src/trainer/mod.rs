@@ -44,7 +44,7 @@ use senc_model::{GraphInputs, Model};
 
 pub use checkpoint::{Progress, CONFIG_FILE, LATEST, OPTIM_FILE, PROGRESS_FILE};
 pub use log::{StepReport, CSV_FILE};
-pub use sampling::{scene_material, Sequence};
+pub use sampling::{material_from_config, scene_material, Sequence};
 
 use crate::config::{Phase, RunConfig};
 use crate::error::TrainError;

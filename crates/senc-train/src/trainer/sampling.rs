@@ -53,9 +53,23 @@ pub(super) fn frame_state<'a>(
 
 /// The scene's own material as an energy material.
 pub fn scene_material(g: &Garment) -> Result<Material, TrainError> {
-    let mc = &g.scene.config.material;
-    let (mu, lambda) = mc.lame()?;
-    Ok(Material { mu, lambda, thickness: mc.thickness, bending_stiffness: mc.bending, density: mc.density })
+    material_from_config(&g.scene.config.material)
+}
+
+/// The material a `[scene.material]` table describes: HOOD's defaults (`Material::default`)
+/// where it gives no number, the Lamé pair or Young's modulus and Poisson's ratio where it
+/// does.
+pub fn material_from_config(mc: &senc_scene::config::MaterialConfig) -> Result<Material, TrainError> {
+    mc.validate()?;
+    let mut m = match (mc.lame_mu, mc.lame_lambda, mc.young, mc.poisson) {
+        (Some(mu), Some(lambda), _, _) => Material { mu, lambda, ..Material::default() },
+        (_, _, Some(young), Some(poisson)) => Material::from_young_poisson(young, poisson)?,
+        _ => Material::default(),
+    };
+    m.density = mc.density.unwrap_or(m.density);
+    m.thickness = mc.thickness.unwrap_or(m.thickness);
+    m.bending_stiffness = mc.bending.unwrap_or(m.bending_stiffness);
+    Ok(m)
 }
 
 /// Moves a sequence one frame on to `next`. After the long first step the velocity is
