@@ -31,7 +31,7 @@ pub mod remesh;
 pub mod repair;
 pub mod topology;
 
-pub use body_query::{BodyQuery, Closest};
+pub use body_query::{BodyQuery, Closest, NearestFaces};
 pub use closure::{close_holes, Closure, HoleSelection};
 pub use error::MeshError;
 pub use mesh::TriMesh;

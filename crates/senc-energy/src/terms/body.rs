@@ -1,12 +1,12 @@
-//! The body: nearest-face queries (senc-geom's [`BodyQuery`]), the cubic collision penalty
-//! and friction against the moving body.
+//! The body: nearest-face queries (senc-geom's [`NearestFaces`]), the cubic collision
+//! penalty and friction against the moving body.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use nalgebra::Matrix3;
 use rayon::prelude::*;
 
-use senc_geom::{BodyQuery, TriMesh, Vec3};
+use senc_geom::{NearestFaces, TriMesh, Vec3};
 
 use crate::error::EnergyError;
 use crate::terms::inertia::per_vertex_eval;
@@ -58,13 +58,13 @@ impl BodyQueries {
             }
         }
         self.queries.fetch_add(1, Ordering::Relaxed);
-        let query = BodyQuery::new(body_t, &self.faces)
+        let query = NearestFaces::new(body_t, &self.faces)
             .map_err(|e| EnergyError::Body(format!("cannot build the body's BVH: {e}")))?;
         Ok(x_t
             .par_iter()
             .map(|x| {
-                let closest = query.closest(x);
-                let (face, q) = (closest.face as usize, closest.point);
+                let (q, face) = query.nearest(x);
+                let face = face as usize;
                 let [a, b, c] = self.faces[face].map(|i| body_t[i as usize]);
                 let beta = barycentric(&q, &a, &b, &c);
                 let n_t = (b - a).cross(&(c - a));
