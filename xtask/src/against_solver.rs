@@ -52,5 +52,11 @@ pub fn run(a: &Args) -> Result<()> {
         "  speed over the last frames   {:8.3} cm/frame (solver {:.3} cm/frame)",
         c.final_speed_cm, c.solver_final_speed_cm
     );
+    for (what, e) in [("solver's", c.on_solver_states), ("network's", c.on_network_states)] {
+        println!(
+            "  one step from the {what:9} states: {:6.3} cm from the solver's step, {:+7.3} cm above it ({} steps)",
+            e.distance_cm, e.rise_cm, e.steps
+        );
+    }
     Ok(())
 }
