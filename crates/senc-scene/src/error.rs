@@ -143,6 +143,9 @@ pub enum SceneError {
         /// Its group names.
         available: Vec<String>,
     },
+    /// Two garment parts could not be joined along their seams.
+    #[error(transparent)]
+    Zip(#[from] crate::zipper::ZipError),
     /// A value out of its allowed range.
     #[error("{0}")]
     Invalid(String),

@@ -3,7 +3,8 @@
 //! Skeletons and linear blend skinning ([`skeleton`]), BVH motion capture parsing,
 //! resampling and retargeting by joint name ([`bvh`], [`motion`]), motions from files by
 //! name or path ([`clip`]), the committed body and
-//! garment assets ([`assets`]), the garment building steps ([`build`]), the fit of garments made
+//! garment assets ([`assets`]), the garment building steps ([`build`]), the joining of two
+//! open parts along a boundary loop each ([`zipper`]), the fit of garments made
 //! elsewhere, with mesh repair ([`fit`]), TOML scene configs
 //! with a train/test motion split ([`config`], [`scene`]) and a software rasteriser for
 //! preview pictures ([`raster`]).
@@ -26,6 +27,7 @@ pub mod motion;
 pub mod raster;
 pub mod scene;
 pub mod skeleton;
+pub mod zipper;
 
 pub use assets::{BodyAsset, GarmentAsset, NamedLoop};
 pub use bvh::Bvh;
