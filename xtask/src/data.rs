@@ -17,9 +17,16 @@ use senc_scene::motion::{retarget, BOXING_TO_CMU_MB, CMU_TO_CMU_MB};
 use senc_scene::{BodyAsset, Bone, Bvh, Skeleton, SkinWeights};
 
 use senc_scene::fit::{describe, fit, FitOptions, FitReport};
+use senc_scene::zipper::{find_loop, zip_loops, LoopAt, Part};
 
 /// Clearance of fitted garments from the body, m.
 const MARGIN: f64 = 5e-3;
+
+/// Smallest distance between the dress top's bottom loop and the skirt's waist loop, m.
+/// The skirt's waist lies on the tights' surface (within 0.1 mm): a cut at or below it gives
+/// a seam touching the waist (zero-area band triangles) or tights folding back over the
+/// skirt's first rows.
+const DRESS_SEAM_GAP: f64 = 0.01;
 
 fn sh(cmd: &mut Command) -> Result<()> {
     let st = cmd.status().with_context(|| format!("cannot run {cmd:?}"))?;
@@ -265,6 +272,47 @@ pub fn run(args: &Args) -> Result<()> {
         let (a, r) = fit(name, &pos, &triangulate(&polys), &body, Some(w), &own)?;
         save(&a, &r)?;
     }
+
+    // Dress: helper-tights above a cut, zipped to helper-skirt's waist loop, both subdivided
+    // once. The cut is the lowest (from the top of the waist loop up, in 2.5 mm steps) whose
+    // bottom loop clears the waist loop by DRESS_SEAM_GAP everywhere, so the band continues
+    // the top down into the skirt.
+    let part = |keep: &dyn Fn(usize) -> bool| -> Result<(TriMesh, WeightLists)> {
+        let (pos, polys, old) = extract(&base.positions, &base.polys, keep);
+        let w: WeightLists = old.iter().map(|&v| all_w[v as usize].clone()).collect();
+        let (pos, quads, w) = subdivide_quads(&pos, &to_quads(&polys)?, &w);
+        let polys: Vec<Vec<u32>> = quads.iter().map(|q| q.to_vec()).collect();
+        Ok((TriMesh::new(pos, triangulate(&polys))?, w))
+    };
+    let (skirt, skirt_w) = part(&|f| base.group[f] == "helper-skirt")?;
+    let waist = find_loop(&skirt, LoopAt::Highest)?;
+    let waist_pos: Vec<Vec3> = waist.iter().map(|&v| skirt.positions()[v as usize]).collect();
+    let waist_top = waist_pos.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max);
+    let mut top = None;
+    for k in 0..40 {
+        let cut = waist_top + 0.0025 * k as f64;
+        let (mesh, w) = part(&|f| base.group[f] == "helper-tights" && centroid_y(&base.polys[f]) > cut)?;
+        let seam = find_loop(&mesh, LoopAt::NearestHeight(waist_top))?;
+        let gap = seam
+            .iter()
+            .flat_map(|&v| {
+                let p = mesh.positions()[v as usize];
+                waist_pos.iter().map(move |q| (p - q).norm())
+            })
+            .fold(f64::INFINITY, f64::min);
+        if gap >= DRESS_SEAM_GAP {
+            println!("dress: helper-tights cut at {cut:.4} m, seam {gap:.4} m from the skirt's waist");
+            top = Some((mesh, w, seam));
+            break;
+        }
+    }
+    let (top, top_w, seam) = top.context("no cut of helper-tights clears the skirt's waist loop")?;
+    let dress = zip_loops(
+        Part { mesh: &top, weights: &top_w, seam: &seam },
+        Part { mesh: &skirt, weights: &skirt_w, seam: &waist },
+    )?;
+    let (a, r) = fit("dress", dress.mesh.positions(), dress.mesh.faces(), &body, Some(dress.weights), &own)?;
+    save(&a, &r)?;
 
     // T-shirt: newton's unisex shirt, cm -> m, aligned, arm-corrected, weights from the body.
     let shirt = senc_geom::obj::ObjData::read(&shirt_obj)?;

@@ -192,8 +192,19 @@ impl Bvh {
             }
             frames.push(row);
         }
-        if t.peek().is_some() {
-            return Err(t.err(format!("values follow the {n_frames} frames the header announces")));
+        // Exported files often hold a frame or two more than their header counts (CMU's
+        // Boxing_Toes); complete frames past the count are left out, anything else refused.
+        while let Some(line) = t.line() {
+            let mut values = 0;
+            while t.line() == Some(line) && t.peek().is_some_and(|v| v.parse::<f64>().is_ok_and(f64::is_finite)) {
+                t.pos += 1;
+                values += 1;
+            }
+            if values != n_channels || t.line() == Some(line) {
+                return Err(t.err(format!(
+                    "values follow the {n_frames} frames the header announces and are not a frame of {n_channels} numbers"
+                )));
+            }
         }
         Ok(Self { joints, frame_time, frames })
     }

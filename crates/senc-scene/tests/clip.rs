@@ -186,9 +186,14 @@ fn malformed_bvh_files_are_typed_errors_that_say_what_is_wrong() {
     assert!(e.contains("non-negative integer"), "{e}");
     let e = bvh_message(edited(|t| t.replacen("Frame Time:\t0.033333", "Frame Time:\t0", 1)));
     assert!(e.contains("frame time must be positive"), "{e}");
-    // Values after the announced frames.
-    let e = bvh_message(edited(|t| t.replacen("Frames:\t150", "Frames:\t149", 1)));
-    assert!(e.contains("values follow the 149 frames"), "{e}");
+    // Complete frames after the announced ones are left out; anything else after them is
+    // refused.
+    let fewer = edited(|t| t.replacen("Frames:\t150", "Frames:\t149", 1)).unwrap();
+    assert_eq!(fewer.frames.len(), 149);
+    let e = bvh_message(edited(|t| format!("{}\n1.0 2.0", t.trim_end())));
+    assert!(e.contains("values follow the 150 frames"), "{e}");
+    let e = bvh_message(edited(|t| format!("{}\nEND", t.trim_end())));
+    assert!(e.contains("values follow the 150 frames"), "{e}");
     // Absurd frame counts neither allocate nor panic.
     let e = bvh_message(edited(|t| t.replacen("Frames:\t150", "Frames:\t1e18", 1)));
     assert!(e.contains("ends after 150"), "{e}");

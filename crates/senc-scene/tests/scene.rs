@@ -269,6 +269,7 @@ const GARMENTS: &[(&str, &[&str])] = &[
     ("tshirt", &["hem", "left_sleeve", "neck", "right_sleeve"]),
     ("skirt", &["hem", "waist"]),
     ("longsleeve", &["hem", "left_sleeve", "neck", "right_sleeve"]),
+    ("dress", &["hem", "left_sleeve", "neck", "right_sleeve"]),
     ("pants", &["left_leg", "right_leg", "waist"]),
 ];
 
@@ -296,7 +297,7 @@ fn committed_garments_are_valid_named_and_outside_the_body() {
 
 #[test]
 fn configs_load_and_frame_zero_is_outside_the_body() {
-    for cfg in ["tshirt", "skirt", "longsleeve", "pants"] {
+    for cfg in ["tshirt", "skirt", "longsleeve", "pants", "dress"] {
         let scene = Scene::load(root().join(format!("configs/{cfg}.toml"))).unwrap();
         assert!(!scene.train.is_empty() && !scene.test.is_empty(), "{cfg}: needs a train/test split");
         for m in scene.train.iter().chain(&scene.test) {
