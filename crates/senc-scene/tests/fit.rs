@@ -1,14 +1,16 @@
 //! The garment fit (`senc_scene::fit`) on OBJ files made from the committed garments (built
 //! from registry meshes): broken the way exported files are broken, they are repaired,
 //! reported and fitted as the clean ones are; several garments in one file are picked by
-//! name, by size or one by one; what cannot be repaired is refused.
+//! name, by size or one by one; what cannot be repaired is refused. Garments already on the
+//! body stay where they are; garments moved away are aligned by their top opening, with
+//! small holes ignored, and their sleeves turned to the arms only when they hang otherwise.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use senc_geom::repair::RepairError;
-use senc_geom::Vec3;
-use senc_scene::fit::{fit_obj, FitOptions, Select};
+use senc_geom::{TriMesh, Vec3};
+use senc_scene::fit::{align, fit, fit_obj, name_loops, FitOptions, Select, TopOpening};
 use senc_scene::{BodyAsset, BodyQuery, GarmentAsset, SceneError};
 
 fn root() -> PathBuf {
@@ -231,31 +233,188 @@ fn what_cannot_be_repaired_is_refused_with_the_reason() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Garments placed anywhere are aligned by their highest loop: the committed skirt and
-/// trousers (a waist) and t-shirt (a neck), moved 0.4 m up, 0.3 m sideways and 0.2 m back,
-/// come back with that loop within 4 cm of where the committed asset has it, their loops
-/// named as the committed ones are, and nothing left inside the body.
+/// Centroid of loop `loop_name` of a garment.
+fn loop_centroid(a: &GarmentAsset, loop_name: &str) -> Vec3 {
+    let l = a.loops.iter().find(|l| l.name == loop_name).unwrap_or_else(|| panic!("{}: no loop {loop_name}", a.name));
+    l.vertices.iter().fold(Vec3::zeros(), |s, &v| s + a.positions[v as usize]) / l.vertices.len() as f64
+}
+
+fn sorted_names(a: &GarmentAsset) -> Vec<String> {
+    let mut names = a.loop_names();
+    names.sort_unstable();
+    names
+}
+
+/// Garments placed anywhere are aligned by their top opening: the committed skirt and
+/// trousers (a waist), t-shirt and long sleeves (a neck), moved 0.4 m up, 0.3 m sideways and
+/// 0.2 m back, are not taken for placed, come back with that loop within 4 cm of where the
+/// committed asset has it, their loops named as the committed ones are, and nothing left
+/// inside the body. The long sleeves' cuffs, at the wrists, lie along the arms: no arm
+/// correction (against the upper arm's direction they would look 4° lower).
 #[test]
-fn tops_and_bottoms_moved_away_are_aligned_by_their_highest_loop() {
+fn tops_and_bottoms_moved_away_are_aligned_by_their_top_opening() {
     let body = body();
     let q = BodyQuery::new(&body.positions, &body.faces).unwrap();
     let opts = FitOptions::default();
-    for (name, top) in [("skirt", "waist"), ("pants", "waist"), ("tshirt", "neck")] {
+    for (name, top, opening) in [
+        ("skirt", "waist", TopOpening::Waist),
+        ("pants", "waist", TopOpening::Waist),
+        ("tshirt", "neck", TopOpening::Neck),
+        ("longsleeve", "neck", TopOpening::Neck),
+    ] {
         let g = garment(name);
         let moved: Vec<Vec3> = g.positions.iter().map(|p| p + Vec3::new(0.3, 0.4, -0.2)).collect();
-        let (fitted, _) = senc_scene::fit::fit(name, &moved, &g.faces, &body, None, &opts).unwrap();
-        let centroid = |a: &GarmentAsset, loop_name: &str| {
-            let l =
-                a.loops.iter().find(|l| l.name == loop_name).unwrap_or_else(|| panic!("{name}: no loop {loop_name}"));
-            l.vertices.iter().fold(Vec3::zeros(), |s, &v| s + a.positions[v as usize]) / l.vertices.len() as f64
-        };
-        let shift = (centroid(&fitted, top) - centroid(&g, top)).norm();
+        let (fitted, rep) = fit(name, &moved, &g.faces, &body, None, &opts).unwrap();
+        assert!(!rep.placement.placed, "{name}: {:?}", rep.placement);
+        assert_eq!(rep.alignment.map(|a| a.opening), Some(opening), "{name}");
+        let shift = (loop_centroid(&fitted, top) - loop_centroid(&g, top)).norm();
         assert!(shift < 0.04, "{name}: {top} lands {shift} m from the committed asset's");
-        let mut names: Vec<&str> = fitted.loops.iter().map(|l| l.name.as_str()).collect();
-        let mut want: Vec<&str> = g.loops.iter().map(|l| l.name.as_str()).collect();
-        names.sort_unstable();
-        want.sort_unstable();
-        assert_eq!(names, want, "{name}");
+        assert_eq!(sorted_names(&fitted), sorted_names(&g), "{name}");
         assert!(q.inside(&fitted.positions).is_empty(), "{name}: vertices inside the body");
+        if name == "longsleeve" {
+            assert_eq!(rep.arm_correction_deg, 0.0);
+        }
     }
+}
+
+/// The committed garments sit on the body: with the default options (alignment on) they are
+/// taken for placed, neither aligned nor arm-corrected, and come back where they were, with
+/// their loop names.
+#[test]
+fn a_garment_already_on_the_body_comes_back_unmoved() {
+    let body = body();
+    for name in ["skirt", "pants", "tshirt", "longsleeve"] {
+        let g = garment(name);
+        let (fitted, rep) = fit(name, &g.positions, &g.faces, &body, None, &FitOptions::default()).unwrap();
+        assert!(rep.placement.placed, "{name}: {:?}", rep.placement);
+        assert!(rep.placement.median < 0.02, "{name}: {:?}", rep.placement);
+        assert_eq!(rep.alignment, None, "{name}");
+        assert_eq!(rep.arm_correction_deg, 0.0, "{name}");
+        assert!(senc_scene::fit::describe(&fitted, &rep).contains("placed on the body, not moved"));
+        // Every fitted vertex lies where a committed one is (the clean-up may drop a few).
+        let far = fitted
+            .positions
+            .iter()
+            .map(|p| g.positions.iter().map(|r| (p - r).norm()).fold(f64::INFINITY, f64::min))
+            .fold(0.0, f64::max);
+        assert!(far < 2e-3, "{name}: a vertex moved {far} m");
+        assert_eq!(sorted_names(&fitted), sorted_names(&g), "{name}");
+    }
+}
+
+/// The committed trousers with a belt loop (an open 1 cm tube, 4 cm above the waist in
+/// front), moved away: the belt loop is the highest opening, but it is small, so the
+/// alignment takes the waist and puts it where the committed asset has it; the loop names
+/// call the two ends of the tube holes.
+#[test]
+fn a_belt_loop_above_the_waist_is_not_taken_for_the_top_opening() {
+    let body = body();
+    let pants = garment("pants");
+    let waist = loop_centroid(&pants, "waist");
+    let tube = senc_testmesh::tube(0.01, 0.01, 8, 1, senc_testmesh::Caps::Open).unwrap();
+    let at = waist + Vec3::new(0.0, 0.04, 0.12);
+    let tube = senc_testmesh::rigid_transform(&tube, &nalgebra::Rotation3::identity(), &at).unwrap();
+    let mesh = senc_testmesh::merge(&pants.mesh().unwrap(), &tube).unwrap();
+    let names = {
+        let mut n: Vec<String> = name_loops(&mesh, &body).unwrap().into_iter().map(|l| l.name).collect();
+        n.sort_unstable();
+        n
+    };
+    assert_eq!(names, ["hole", "hole_2", "left_leg", "right_leg", "waist"]);
+    let shift = Vec3::new(0.3, 0.4, -0.2);
+    let mut moved: Vec<Vec3> = mesh.positions().iter().map(|p| p + shift).collect();
+    let moved_mesh = mesh.with_positions(moved.clone()).unwrap();
+    let a = align(&mut moved, &moved_mesh, &body).unwrap();
+    assert_eq!(a.opening, TopOpening::Waist);
+    let n = pants.positions.len();
+    let l = &pants.loops.iter().find(|l| l.name == "waist").unwrap().vertices;
+    let c = l.iter().fold(Vec3::zeros(), |s, &v| s + moved[v as usize]) / l.len() as f64;
+    assert!((c - waist).norm() < 0.04, "the waist lands {} m off", (c - waist).norm());
+    assert!((moved[n] - tube.positions()[0]).norm() < 0.04, "the tube moves with the trousers");
+}
+
+/// The committed trousers cut 15 cm below the crotch are shorts: their leg openings, above
+/// the knees, are legs (below the crotch and off-centre), not hems.
+#[test]
+fn shorts_leg_openings_above_the_knees_are_legs() {
+    let body = body();
+    let pants = garment("pants");
+    let shorts = cut(&pants.mesh().unwrap(), |c| c.y > -0.15);
+    let mut names: Vec<String> = name_loops(&shorts, &body).unwrap().into_iter().map(|l| l.name).collect();
+    names.sort_unstable();
+    assert_eq!(names, ["left_leg", "right_leg", "waist"]);
+}
+
+/// The committed long sleeves opened down the front (a cardigan): neck and hem become one
+/// loop, which reaches up to the neck and is called `neck` (its centroid is at the chest).
+/// Moved away, the garment is aligned by that open front and lands within 4 cm of where the
+/// committed garment is.
+#[test]
+fn an_open_front_is_a_neck() {
+    let body = body();
+    let g = garment("longsleeve");
+    let open = cut(&g.mesh().unwrap(), |c| !(c.x.abs() < 0.012 && c.z > 0.0));
+    assert_eq!(open.topology().boundary_loops().len(), 3, "neck and hem joined");
+    let mut names: Vec<String> = name_loops(&open, &body).unwrap().into_iter().map(|l| l.name).collect();
+    names.sort_unstable();
+    assert_eq!(names, ["left_sleeve", "neck", "right_sleeve"]);
+    let shift = Vec3::new(0.3, 0.4, -0.2);
+    let mut moved: Vec<Vec3> = open.positions().iter().map(|p| p + shift).collect();
+    let moved_mesh = open.with_positions(moved.clone()).unwrap();
+    let a = align(&mut moved, &moved_mesh, &body).unwrap();
+    assert_eq!(a.opening, TopOpening::OpenFront);
+    let back = (moved[0] - open.positions()[0]).norm();
+    assert!(back < 0.04, "lands {back} m off");
+}
+
+/// The committed long sleeves with both arms raised 20° about the shoulder joints: the
+/// sleeves stand off the arms, so the garment is not taken for placed; fitted without
+/// alignment, it is arm-corrected by about −20° (the sleeves hang higher than the arms),
+/// which brings the cuffs back near the wrists.
+#[test]
+fn sleeves_raised_off_the_arms_are_corrected_by_their_angle() {
+    let body = body();
+    let g = garment("longsleeve");
+    let sh = body.skeleton.bones[body.skeleton.find("LeftArm").unwrap()].head;
+    let raise = 20f64.to_radians();
+    let raised: Vec<Vec3> = g
+        .positions
+        .iter()
+        .map(|p| {
+            if p.x.abs() <= sh.x {
+                return *p;
+            }
+            let s = p.x.signum();
+            let pivot = Vec3::new(s * sh.x, sh.y, p.z);
+            let d = p - pivot;
+            let a = s * raise;
+            pivot + Vec3::new(d.x * a.cos() - d.y * a.sin(), d.x * a.sin() + d.y * a.cos(), 0.0)
+        })
+        .collect();
+    let (fitted, rep) = fit("raised", &raised, &g.faces, &body, None, &in_place()).unwrap();
+    assert!(!rep.placement.placed, "{:?}", rep.placement);
+    assert!((rep.arm_correction_deg + 20.0).abs() < 3.0, "arm correction {}", rep.arm_correction_deg);
+    let off = (loop_centroid(&fitted, "left_sleeve") - loop_centroid(&g, "left_sleeve")).norm();
+    assert!(off < 0.03, "the left cuff lands {off} m from the committed one");
+}
+
+/// The faces of `mesh` whose centroid passes `keep`, with the unused vertices dropped.
+fn cut(mesh: &TriMesh, keep: impl Fn(&Vec3) -> bool) -> TriMesh {
+    let p = mesh.positions();
+    let mut index = vec![u32::MAX; p.len()];
+    let mut positions = Vec::new();
+    let mut faces = Vec::new();
+    for f in mesh.faces() {
+        let c = f.iter().fold(Vec3::zeros(), |s, &v| s + p[v as usize]) / 3.0;
+        if keep(&c) {
+            faces.push(f.map(|v| {
+                if index[v as usize] == u32::MAX {
+                    index[v as usize] = positions.len() as u32;
+                    positions.push(p[v as usize]);
+                }
+                index[v as usize]
+            }));
+        }
+    }
+    TriMesh::new(positions, faces).unwrap()
 }
