@@ -473,14 +473,19 @@ fn pose_with_subtree(
 /// with no angle to correct, m.
 pub const MIN_SLEEVE: f64 = 0.08;
 
+/// How far past the elbow (in the xy plane) a sleeve opening must reach before it is
+/// compared with the forearm rather than the upper arm, m: a sleeve ending about the elbow
+/// hangs from the upper arm.
+pub const ELBOW_REACH: f64 = 0.05;
+
 /// The point of the body's left arm chain (shoulder, elbow, wrist joints, in the xy plane)
-/// at distance `s` from the shoulder: on the upper arm when `s` is at most its length,
-/// else on the forearm, else (beyond the wrist) the wrist.
+/// at distance `s` from the shoulder: along the upper arm when `s` is at most its length
+/// plus [`ELBOW_REACH`], else on the forearm, else (beyond the wrist) the wrist.
 fn arm_point_at(sh: Vec3, el: Vec3, wr: Vec3, s: f64) -> Vec3 {
     let flat = |v: Vec3| Vec3::new(v.x, v.y, 0.0);
     let (sh, el, wr) = (flat(sh), flat(el), flat(wr));
     let upper = (el - sh).norm();
-    if s <= upper {
+    if s <= upper + ELBOW_REACH {
         return sh + (el - sh) * (s / upper.max(1e-9));
     }
     // |el + t (wr − el) − sh| = s, the root with t ≥ 0.
@@ -496,27 +501,19 @@ fn arm_point_at(sh: Vec3, el: Vec3, wr: Vec3, s: f64) -> Vec3 {
 /// Angle (degrees, in the xy plane, seen from the left shoulder joint) by which the left
 /// sleeve hangs lower than the body's arm: the sleeve loop's centroid against the point of
 /// the arm chain at the same distance from the shoulder (on the upper arm for a short
-/// sleeve, on the forearm or at the wrist for a long one). `None` without a left sleeve, for
-/// an armhole (a loop not beyond the shoulder joint by [`MIN_SLEEVE`]), and when the sleeve
-/// already lies along the arm: the body's arm passes through the sleeve
-/// opening (the body surface nearest the loop's centroid is nearer than the loop's radius
-/// and lies beyond the shoulder joint).
-fn sleeve_angle(
-    named: &[NamedLoop],
-    positions: &[Vec3],
-    body: &BodyAsset,
-    query: &BodyQuery,
-) -> Result<Option<f64>, SceneError> {
+/// sleeve, on the forearm or at the wrist for a long one). `None` without a left sleeve and
+/// for an armhole (a loop not beyond the shoulder joint by [`MIN_SLEEVE`]). A wide short
+/// sleeve can hang well below the arm with the arm still through it, so that is no reason
+/// to skip the correction.
+fn sleeve_angle(named: &[NamedLoop], positions: &[Vec3], body: &BodyAsset) -> Result<Option<f64>, SceneError> {
     let sh = bone_head(body, "LeftArm")?;
     let el = bone_head(body, "LeftForeArm")?;
     let wr = bone_head(body, "LeftHand")?;
     let Some(l) = named.iter().find(|l| l.name == "left_sleeve") else { return Ok(None) };
     let n = l.vertices.len() as f64;
     let c = l.vertices.iter().fold(Vec3::zeros(), |s, &v| s + positions[v as usize]) / n;
-    let radius = l.vertices.iter().map(|&v| (positions[v as usize] - c).norm()).sum::<f64>() / n;
-    let near = query.closest(&c);
     let s = (c.x - sh.x).hypot(c.y - sh.y);
-    if c.x <= sh.x || s < MIN_SLEEVE || (near.signed_distance.abs() < radius && near.point.x > sh.x) {
+    if c.x <= sh.x || s < MIN_SLEEVE {
         return Ok(None);
     }
     let p = arm_point_at(sh, el, wr, s);
@@ -576,7 +573,7 @@ fn fit_repaired(
         Some(w) => w,
         None => {
             let named = name_loops(&mesh, body)?;
-            let angle = if placement.placed { None } else { sleeve_angle(&named, &positions, body, &query)? };
+            let angle = if placement.placed { None } else { sleeve_angle(&named, &positions, body)? };
             match angle {
                 Some(deg) if deg.abs() > 2.0 => {
                     // Pose the body with its arms at the sleeves' angle, take weights there,
@@ -802,13 +799,16 @@ mod tests {
     }
 
     /// An arm chain along x then y (upper arm 0.3, forearm 0.4, both in the xy plane): the
-    /// point at distance s from the shoulder is on the upper arm up to 0.3, then on the
-    /// forearm where |p − shoulder| = s (a right triangle: 0.3² + t² = s²), then the wrist.
+    /// point at distance s from the shoulder is along the upper arm up to 0.3 + ELBOW_REACH,
+    /// then on the forearm where |p − shoulder| = s (a right triangle: 0.3² + t² = s²), then
+    /// the wrist.
     #[test]
     fn the_arm_point_at_a_distance_follows_the_chain() {
         let (sh, el, wr) = (Vec3::zeros(), Vec3::new(0.3, 0.0, 0.1), Vec3::new(0.3, -0.4, 0.2));
         let p = arm_point_at(sh, el, wr, 0.15);
         assert!((p - Vec3::new(0.15, 0.0, 0.0)).norm() < 1e-12, "{p}");
+        let p = arm_point_at(sh, el, wr, 0.3 + 0.5 * ELBOW_REACH);
+        assert!((p - Vec3::new(0.3 + 0.5 * ELBOW_REACH, 0.0, 0.0)).norm() < 1e-12, "{p}");
         let p = arm_point_at(sh, el, wr, 0.5);
         assert!((p - Vec3::new(0.3, -0.4, 0.0)).norm() < 1e-12, "{p}");
         let p = arm_point_at(sh, el, wr, (0.3f64.powi(2) + 0.2f64.powi(2)).sqrt());

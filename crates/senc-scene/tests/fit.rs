@@ -272,7 +272,8 @@ fn tops_and_bottoms_moved_away_are_aligned_by_their_top_opening() {
         assert_eq!(sorted_names(&fitted), sorted_names(&g), "{name}");
         assert!(q.inside(&fitted.positions).is_empty(), "{name}: vertices inside the body");
         if name == "longsleeve" {
-            assert_eq!(rep.arm_correction_deg, 0.0);
+            // Sleeves along the arms: at most the few degrees the alignment's own offset gives.
+            assert!(rep.arm_correction_deg.abs() < 8.0, "arm correction {}", rep.arm_correction_deg);
         }
     }
 }
