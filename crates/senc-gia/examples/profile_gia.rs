@@ -3,7 +3,8 @@
 //! for a committed garment frame instead, all holes fanned).
 //!
 //! `profile_gia detect N` (or `analyse N`, `total N`, `first N`: a fresh workspace's first
-//! query on the topology seen before) runs only that phase N times and
+//! query on the topology seen before, `build N`: a fresh mesh and its intersector, whose
+//! search tree is built) runs only that phase N times and
 //! prints nothing else, for CPU-time measurements with `perf stat -e task-clock` on a busy
 //! machine.
 
@@ -41,6 +42,11 @@ fn main() {
             let t = Instant::now();
             match args[1].as_str() {
                 "detect" => drop(std::hint::black_box(ix.find(mesh))),
+                "build" => {
+                    let fresh = senc_geom::TriMesh::new(mesh.positions().to_vec(), mesh.faces().to_vec()).unwrap();
+                    let _ = fresh.topology().edge_faces();
+                    drop(std::hint::black_box(SelfIntersector::new(&fresh)));
+                }
                 "analyse" => drop(std::hint::black_box(ws.analyse(&closure, &inter, &GiaOptions::default()))),
                 "first" => drop(std::hint::black_box(
                     GiaWorkspace::new(&closure).penetration(&closure, &GiaOptions::default()).unwrap(),

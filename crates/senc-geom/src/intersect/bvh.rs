@@ -215,6 +215,8 @@ pub(crate) struct SearchTree {
     pub(super) patch_ranges: Vec<[u32; 2]>,
     /// Boundary edges (vertex pairs) of the disk nodes, node after node.
     pub(super) patch_edges: Vec<[u32; 2]>,
+    /// Per node: its slots, `slots[0]..slots[1]`.
+    pub(super) node_slots: Vec<[u32; 2]>,
 }
 
 /// The tree's nodes and slot order over faces with these centroids and edge neighbours
@@ -281,7 +283,8 @@ impl SearchTree {
             .iter()
             .map(|&f| nbrs[f as usize].map(|g| if g == NO_FACE { NO_FACE } else { slot_of[g as usize] }))
             .collect();
-        let (patch_ranges, patch_edges) = disk_patches(mesh.n_vertices(), &nodes, &slot_faces, &slot_nbrs, &ring_kind);
+        let DiskPatches { ranges: patch_ranges, edges: patch_edges, slots: node_slots } =
+            disk_patches(mesh.n_vertices(), &nodes, &slot_faces, &slot_nbrs, &ring_kind);
         Self {
             leaf_verts: Arc::new(LeafVerts::of_slots(&slot_faces, &vec![0; n])),
             faces,
@@ -293,6 +296,7 @@ impl SearchTree {
             ring_links,
             patch_ranges,
             patch_edges,
+            node_slots,
         }
     }
 }
@@ -360,6 +364,12 @@ pub struct SelfIntersector {
     /// Per leaf group, then per node: the box of the unit face normals.
     pub(super) group_normals: Vec<NormalBox>,
     pub(super) node_normals: Vec<NormalBox>,
+    /// Per leaf group, then per node: the cone of the unit face normals.
+    pub(super) group_cones: Vec<NormalCone>,
+    pub(super) node_cones: Vec<NormalCone>,
+    /// Per slot: the face's unit normal, or zero where its direction cannot be trusted
+    /// (see [`NormalBox::add_face`]).
+    pub(super) units: Vec<Vec3>,
 }
 
 impl std::fmt::Debug for SelfIntersector {
@@ -393,6 +403,9 @@ impl SelfIntersector {
             rings: Vec::new(),
             group_normals: Vec::new(),
             node_normals: Vec::new(),
+            group_cones: Vec::new(),
+            node_cones: Vec::new(),
+            units: Vec::new(),
         }
     }
 
@@ -469,7 +482,10 @@ impl SelfIntersector {
             ring_links: &self.tree.ring_links,
             patch_ranges: &self.tree.patch_ranges,
             patch_edges: &self.tree.patch_edges,
+            node_slots: &self.tree.node_slots,
+            units: &self.units,
             normals: &self.node_normals,
+            cones: &self.node_cones,
         }
     }
 
@@ -479,33 +495,46 @@ impl SelfIntersector {
         let n = self.tree.order.len();
         self.boxes.resize(n, Aabb3::EMPTY);
         self.planes.resize(n, FacePlane::ZERO);
+        self.units.resize(n, Vec3::zeros());
         let n_groups = n.div_ceil(LEAF_SIZE);
         self.lanes.resize(n_groups, LeafBoxes::EMPTY);
         self.group_normals.resize(n_groups, NormalBox::EMPTY);
         self.node_normals.resize(self.nodes.len(), NormalBox::EMPTY);
+        self.group_cones.resize(n_groups, NormalCone::NONE);
+        self.node_cones.resize(self.nodes.len(), NormalCone::NONE);
         let pos = mesh.positions();
         let slot_faces = &self.tree.slot_faces;
         // One parallel pass over leaf groups: f64 boxes and planes per slot, then the
-        // group's f32 lanes (unused lanes keep their empty boxes) and normal box.
+        // group's f32 lanes (unused lanes keep their empty boxes), normal box and cone.
         self.lanes
             .par_iter_mut()
             .zip(self.group_normals.par_iter_mut())
+            .zip(self.group_cones.par_iter_mut())
             .zip(self.boxes.par_chunks_mut(LEAF_SIZE))
             .zip(self.planes.par_chunks_mut(LEAF_SIZE))
+            .zip(self.units.par_chunks_mut(LEAF_SIZE))
             .enumerate()
             .with_min_len(256)
-            .for_each(|(group, (((lanes, nbox), boxes), planes))| {
+            .for_each(|(group, (((((lanes, nbox), cone), boxes), planes), units))| {
                 *nbox = NormalBox::EMPTY;
+                let mut trusted = true;
                 for (k, (bx, pl)) in boxes.iter_mut().zip(planes.iter_mut()).enumerate() {
                     let [a, b, c] = slot_faces[group * LEAF_SIZE + k].map(|v| pos[v as usize]);
                     *bx = Aabb3::of_triangle(a, b, c);
                     *pl = FacePlane::of_triangle(a, b, c);
-                    nbox.add_face(pl.n, b - a, c - a);
+                    match nbox.add_face(pl.n, b - a, c - a) {
+                        Some(u) => units[k] = u,
+                        None => {
+                            units[k] = Vec3::zeros();
+                            trusted = false;
+                        }
+                    }
                     for ax in 0..3 {
                         lanes.lo[ax][k] = f32_down(bx.lo[ax]);
                         lanes.hi[ax][k] = f32_up(bx.hi[ax]);
                     }
                 }
+                *cone = NormalCone::of_units(units, trusted);
             });
         for i in (0..self.nodes.len()).rev() {
             let nd = self.nodes[i];
@@ -515,10 +544,12 @@ impl SelfIntersector {
                 self.nodes[i].bbox =
                     self.boxes[nd.a as usize..nd.b as usize].iter().fold(Aabb3::EMPTY, |acc, b| acc.union(b));
                 self.node_normals[i] = self.group_normals[nd.a as usize / LEAF_SIZE];
+                self.node_cones[i] = self.group_cones[nd.a as usize / LEAF_SIZE];
             } else {
                 let (ca, cb) = (nd.a as usize, nd.b as usize);
                 self.nodes[i].bbox = self.nodes[ca].bbox.union(&self.nodes[cb].bbox);
                 self.node_normals[i] = self.node_normals[ca].union(&self.node_normals[cb]);
+                self.node_cones[i] = self.node_cones[ca].merge(&self.node_cones[cb]);
             }
         }
         self.rings.resize_with(mesh.n_vertices(), || AtomicU8::new(RING_UNKNOWN));

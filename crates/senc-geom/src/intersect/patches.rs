@@ -17,21 +17,23 @@ pub(super) struct NormalBox {
 impl NormalBox {
     pub(super) const EMPTY: NormalBox = NormalBox { lo: [f64::INFINITY; 3], hi: [f64::NEG_INFINITY; 3] };
 
-    /// Adds the face with scaled normal `n = e1 × e2` (edges `e1`, `e2` from its first vertex).
+    /// Adds the face with scaled normal `n = e1 × e2` (edges `e1`, `e2` from its first vertex);
+    /// returns its unit normal, or `None` when its direction cannot be trusted.
     #[inline]
-    pub(super) fn add_face(&mut self, n: Vec3, e1: Vec3, e2: Vec3) {
+    pub(super) fn add_face(&mut self, n: Vec3, e1: Vec3, e2: Vec3) -> Option<Vec3> {
         let nn = n.norm_squared();
         let unit = if nn.is_finite() && nn > 1e-12 * e1.norm_squared() * e2.norm_squared() {
             n / nn.sqrt()
         } else {
             self.lo = [-1.0; 3];
             self.hi = [1.0; 3];
-            return;
+            return None;
         };
         for ax in 0..3 {
             self.lo[ax] = lesser(self.lo[ax], unit[ax]);
             self.hi[ax] = greater(self.hi[ax], unit[ax]);
         }
+        Some(unit)
     }
 
     #[inline]
@@ -57,13 +59,94 @@ impl NormalBox {
     }
 }
 
+/// A cone of unit face normals, the second normal test of disk patches (see
+/// [`Traversal::patch_is_embedded`]; it passes on curved patches whose normal box holds
+/// points far from the unit sphere): every face's computed unit normal `n` has
+/// `n · axis ≥ cos`. The axis is the normalised sum of the unit normals (`sum`, added up the
+/// tree); a parent's bound comes from its children's cones by the triangle inequality on
+/// the sphere, `∠(n, axis) ≤ ∠(axis, axis_child) + ∠(n, axis_child)`, evaluated as
+/// `cos(θ + α) = cos θ cos α − sin θ sin α` with `cos θ = axis · axis_child`,
+/// `sin θ = |axis × axis_child|` and `sin α ≤ √(1 − cos²α) + 2e-8` (the bound covers the
+/// rounding of `1 − cos²α` near 1). Each level subtracts `1e-12` from the bound, far above
+/// the rounding of these few operations on unit vectors (about `1e-15`). A cone with
+/// `cos ≤ 0` is no cone (`cos = −1`): its parents have none either. A face whose direction
+/// cannot be trusted (see [`NormalBox`]) leaves its leaf without a cone.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct NormalCone {
+    pub(super) sum: Vec3,
+    pub(super) axis: Vec3,
+    pub(super) cos: f64,
+}
+
+/// Slack subtracted from a cone's bound at each level (see [`NormalCone`]).
+const CONE_SLACK: f64 = 1e-12;
+
+impl NormalCone {
+    pub(super) const NONE: NormalCone =
+        NormalCone { sum: Vec3::new(0.0, 0.0, 0.0), axis: Vec3::new(0.0, 0.0, 0.0), cos: -1.0 };
+
+    /// The cone of the given unit normals; no cone when `trusted` is false or the normals
+    /// sum to zero.
+    pub(super) fn of_units(units: &[Vec3], trusted: bool) -> NormalCone {
+        let sum: Vec3 = units.iter().sum();
+        let len = sum.norm();
+        if !(trusted && len.is_finite() && len > 0.0) {
+            return NormalCone { sum, ..Self::NONE };
+        }
+        let axis = sum / len;
+        let cos = units.iter().fold(1.0, |c, u| lesser(c, u.dot(&axis))) - CONE_SLACK;
+        NormalCone { sum, axis, cos: if cos > 0.0 { cos } else { -1.0 } }
+    }
+
+    /// The cone of two nodes' normals (see the type's docs).
+    pub(super) fn merge(&self, o: &NormalCone) -> NormalCone {
+        let sum = self.sum + o.sum;
+        if !(self.cos > 0.0 && o.cos > 0.0) {
+            return NormalCone { sum, ..Self::NONE };
+        }
+        let len = sum.norm();
+        if !(len.is_finite() && len > 0.0) {
+            return NormalCone { sum, ..Self::NONE };
+        }
+        let axis = sum / len;
+        let bound = |c: &NormalCone| {
+            let cos_t = axis.dot(&c.axis);
+            if cos_t.is_nan() || cos_t <= 0.0 {
+                return -1.0;
+            }
+            let sin_t = axis.cross(&c.axis).norm();
+            let sin_a = (1.0 - c.cos * c.cos).max(0.0).sqrt() + 2e-8;
+            cos_t * c.cos - sin_t * sin_a
+        };
+        let cos = lesser(bound(self), bound(o)) - CONE_SLACK;
+        NormalCone { sum, axis, cos: if cos > 0.0 { cos } else { -1.0 } }
+    }
+
+    /// The axis when every unit normal `n` of the cone has `n · axis > 1e-6` (the margin of
+    /// [`NormalBox::direction`]), else `None`.
+    #[inline]
+    pub(super) fn direction(&self) -> Option<Vec3> {
+        (self.cos > 1e-6).then_some(self.axis)
+    }
+}
+
 /// Smallest node (in faces) whose disk-patch test is tried: below it, checking the boundary
 /// costs more than the pairs it would skip.
 pub(super) const MIN_PATCH: u32 = 16;
 
+/// The disk patches of a tree (see [`disk_patches`]).
+pub(super) struct DiskPatches {
+    /// Per node: its range in `edges` (empty when it is not a disk patch).
+    pub(super) ranges: Vec<[u32; 2]>,
+    /// Boundary edges (vertex pairs) of the disk nodes, node after node.
+    pub(super) edges: Vec<[u32; 2]>,
+    /// Per node: its slots, `slots[0]..slots[1]`.
+    pub(super) slots: Vec<[u32; 2]>,
+}
+
 /// Per node, the range of its boundary edges in the returned list when its faces form a
-/// topological disk of at least [`MIN_PATCH`] faces (an empty range otherwise). Topology
-/// only, computed once per tree. A face set is a disk when it is connected, every vertex's
+/// topological disk of at least [`MIN_PATCH`] faces (an empty range otherwise), the list,
+/// and per node its range of slots. Topology only, computed once per tree. A face set is a disk when it is connected, every vertex's
 /// ring is one fan in the mesh ([`RING_CLOSED`] or [`RING_OPEN`]) with zero or two boundary
 /// edges of the set at that vertex (so the set is a surface with boundary), its boundary is
 /// not empty and its Euler characteristic `V − E + F` is 1 (`2 − 2g − b = 1` with `b ≥ 1`
@@ -74,7 +157,7 @@ pub(super) fn disk_patches(
     slot_faces: &[[u32; 3]],
     slot_nbrs: &[[u32; 3]],
     kinds: &[u8],
-) -> (Vec<[u32; 2]>, Vec<[u32; 2]>) {
+) -> DiskPatches {
     let mut range = vec![[0u32; 2]; nodes.len()];
     for i in (0..nodes.len()).rev() {
         let nd = nodes[i];
@@ -146,7 +229,7 @@ pub(super) fn disk_patches(
             edges.truncate(start);
         }
     }
-    (out, edges)
+    DiskPatches { ranges: out, edges, slots: range }
 }
 
 /// Per face, the face across each of its edges (`[k]`: across the edge opposite vertex `k`,

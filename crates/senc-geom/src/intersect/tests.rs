@@ -429,3 +429,52 @@ fn rays_count_virtual_fans_over_open_holes() {
     // Without the fan, the ray through the hole misses the surface.
     assert_eq!(ray_winding_brute(&open, &up, u32::MAX, &[]), Some(0));
 }
+
+#[test]
+fn normal_cones_bound_every_normal_they_hold() {
+    // Unit normals scattered around random axes at random spreads, merged pairwise up a
+    // balanced tree as the refit merges them: every normal of a subtree must satisfy the
+    // subtree cone's bound, and cones must exist where the spread is small.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let mut with_cone = 0;
+    for case in 0..400 {
+        let axis = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0))
+            .normalize();
+        let spread = [1e-9, 1e-3, 0.1, 0.5, 1.0][case % 5];
+        let units: Vec<Vec3> = (0..64)
+            .map(|_| {
+                let off = Vec3::new(
+                    rng.random_range(-spread..spread),
+                    rng.random_range(-spread..spread),
+                    rng.random_range(-spread..spread),
+                );
+                (axis + off).normalize()
+            })
+            .collect();
+        let mut level: Vec<(NormalCone, Vec<Vec3>)> =
+            units.chunks(LEAF_SIZE).map(|c| (NormalCone::of_units(c, true), c.to_vec())).collect();
+        while level.len() > 1 {
+            level = level
+                .chunks(2)
+                .map(|p| {
+                    let mut all = p[0].1.clone();
+                    all.extend(&p[1].1);
+                    (p[0].0.merge(&p[1].0), all)
+                })
+                .collect();
+            for (cone, us) in &level {
+                if let Some(d) = cone.direction() {
+                    for u in us {
+                        assert!(u.dot(&d) >= cone.cos, "case {case}: {} < {}", u.dot(&d), cone.cos);
+                    }
+                }
+            }
+        }
+        if spread <= 0.1 {
+            with_cone += level[0].0.direction().is_some() as usize;
+        }
+    }
+    assert_eq!(with_cone, 240, "every set spread by at most 0.1 has a cone");
+    assert!(NormalCone::of_units(&[Vec3::z(), -Vec3::z()], true).direction().is_none());
+    assert!(NormalCone::of_units(&[Vec3::z()], false).direction().is_none());
+}

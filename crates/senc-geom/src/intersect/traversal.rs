@@ -37,7 +37,10 @@ pub(super) struct Traversal<'a> {
     pub(super) ring_links: &'a [[u32; 2]],
     pub(super) patch_ranges: &'a [[u32; 2]],
     pub(super) patch_edges: &'a [[u32; 2]],
+    pub(super) node_slots: &'a [[u32; 2]],
+    pub(super) units: &'a [Vec3],
     pub(super) normals: &'a [NormalBox],
+    pub(super) cones: &'a [NormalCone],
 }
 
 impl Traversal<'_> {
@@ -75,7 +78,7 @@ impl Traversal<'_> {
     ///
     /// The faces must form a topological disk `S` (see [`disk_patches`]) and there must be
     /// a direction `d` with `n_f · d > 0` for every face normal (from the node's
-    /// [`NormalBox`]). Then the projection `π` along `d` keeps every face's orientation, and
+    /// [`NormalCone`], else its [`NormalBox`]). Then the projection `π` along `d` keeps every face's orientation, and
     /// for a point `x` of the plane off `π(∂S)` and off the projected edges, the number of
     /// its preimages equals the winding number of `π(∂S)` around it (degree theory: each
     /// preimage counts +1). If `π(∂S)` is a simple closed curve (checked here with float
@@ -91,7 +94,7 @@ impl Traversal<'_> {
         if start == end {
             return false;
         }
-        let Some(d) = self.normals[n as usize].direction() else {
+        let Some(d) = self.normal_direction(n) else {
             return false;
         };
         let helper = if d.x.abs() < 0.9 { Vec3::x() } else { Vec3::y() };
@@ -135,6 +138,26 @@ impl Traversal<'_> {
             }
         }
         true
+    }
+
+    /// A unit direction `d` with `n · d > 1e-6` for the computed unit normal `n` of every
+    /// face of node `n` (so `n · d > 0` for its true normal, whose direction differs by at
+    /// most about `1e-9`, see [`NormalBox::add_face`]), or `None`. Tried in order of cost:
+    /// the node's [`NormalCone`] (a bound carried up the tree), its [`NormalBox`], and
+    /// last every face's unit normal against the cone's axis (the normalised sum of the
+    /// unit normals; a face whose direction cannot be trusted has a zero normal and fails).
+    pub(super) fn normal_direction(&self, n: u32) -> Option<Vec3> {
+        let cone = &self.cones[n as usize];
+        if let Some(d) = cone.direction().or_else(|| self.normals[n as usize].direction()) {
+            return Some(d);
+        }
+        let len = cone.sum.norm();
+        if !(len.is_finite() && len > 0.0) {
+            return None;
+        }
+        let d = cone.sum / len;
+        let [lo, hi] = self.node_slots[n as usize];
+        self.units[lo as usize..hi as usize].iter().all(|u| u.dot(&d) > 1e-6).then_some(d)
     }
 
     /// Splits the root's work into at least `min_tasks` tasks where the tree allows, for
