@@ -4,7 +4,9 @@
 //!
 //! `profile_gia detect N` (or `analyse N`, `total N`, `first N`: a fresh workspace's first
 //! query on the topology seen before, `build N`: a fresh mesh and its intersector, whose
-//! search tree is built) runs only that phase N times and
+//! search tree is built, `mesh N`: a fresh mesh and closure of the same faces, `new N`: that
+//! and a fresh workspace's first query on it, whose search tree is built) runs only that
+//! phase N times and
 //! prints nothing else, for CPU-time measurements with `perf stat -e task-clock` on a busy
 //! machine.
 
@@ -46,6 +48,17 @@ fn main() {
                     let fresh = senc_geom::TriMesh::new(mesh.positions().to_vec(), mesh.faces().to_vec()).unwrap();
                     let _ = fresh.topology().edge_faces();
                     drop(std::hint::black_box(SelfIntersector::new(&fresh)));
+                }
+                "mesh" | "new" => {
+                    let fresh = senc_geom::TriMesh::new(mesh.positions().to_vec(), mesh.faces().to_vec()).unwrap();
+                    let c = close_holes(&fresh, &HoleSelection::None).unwrap();
+                    if args[1] == "new" {
+                        drop(std::hint::black_box(
+                            GiaWorkspace::new(&c).penetration(&c, &GiaOptions::default()).unwrap(),
+                        ));
+                    } else {
+                        drop(std::hint::black_box(c));
+                    }
                 }
                 "analyse" => drop(std::hint::black_box(ws.analyse(&closure, &inter, &GiaOptions::default()))),
                 "first" => drop(std::hint::black_box(
