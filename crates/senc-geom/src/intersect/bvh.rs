@@ -226,28 +226,58 @@ pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Ve
     let mut order: Vec<u32> = (0..n as u32).collect();
     let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 2);
     if n > 0 {
-        // The faces sorted along each axis once; every split keeps each list sorted per node.
+        // The faces sorted along each axis once (keys computed once, sorted with their
+        // faces); every split keeps each list sorted per node.
         let sorted_along = |axis: usize| {
-            let mut l: Vec<u32> = (0..n as u32).collect();
-            l.sort_unstable_by_key(|&f| axis_key(centroids, axis, f));
-            l
+            let keys: Vec<u64> = (0..n as u32).map(|f| axis_key(centroids, axis, f).0).collect();
+            radix_order(&keys)
         };
-        let (mut x, (mut y, mut z)) =
-            rayon::join(|| sorted_along(0), || rayon::join(|| sorted_along(1), || sorted_along(2)));
-        let mut b = Builder {
-            nbrs,
-            centroids,
-            base: 0,
-            mark: vec![u32::MAX; n],
-            queued: vec![u32::MAX; n],
-            scratch: Vec::new(),
-            heap: std::collections::BinaryHeap::new(),
-            strays: [Vec::new(), Vec::new()],
-            notches: [Vec::new(), Vec::new()],
-        };
-        b.node(&mut nodes, &mut order, &mut [&mut x[..], &mut y[..], &mut z[..]], 0, n, par);
+        let (x, (y, z)) = rayon::join(|| sorted_along(0), || rayon::join(|| sorted_along(1), || sorted_along(2)));
+        let mut rank = vec![[0u32; 3]; n];
+        for (axis, list) in [&x, &y, &z].into_iter().enumerate() {
+            for (r, &f) in list.iter().enumerate() {
+                rank[f as usize][axis] = r as u32;
+            }
+        }
+        let (mut xs, mut ys, mut zs) = (x.clone(), y.clone(), z.clone());
+        let mut b = Builder::new(nbrs, centroids, &rank, [&x, &y, &z], 0);
+        b.node(&mut nodes, &mut order, &mut [&mut xs[..], &mut ys[..], &mut zs[..]], 0, n, par);
     }
     (nodes, order)
+}
+
+/// The indices `0..keys.len()` sorted by `(keys[i], i)`: a stable least-significant-digit
+/// radix sort of the keys, 11 bits per pass, skipping the passes where every key has the
+/// same digit.
+pub(super) fn radix_order(keys: &[u64]) -> Vec<u32> {
+    const BITS: usize = 11;
+    const PASSES: usize = 64usize.div_ceil(BITS);
+    const MASK: u64 = (1 << BITS) - 1;
+    let n = keys.len();
+    let mut counts = vec![[0u32; 1 << BITS]; PASSES];
+    for &k in keys {
+        for (p, c) in counts.iter_mut().enumerate() {
+            c[((k >> (p * BITS)) & MASK) as usize] += 1;
+        }
+    }
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    let mut next = vec![0u32; n];
+    for (p, c) in counts.iter_mut().enumerate() {
+        if c.iter().any(|&x| x as usize == n) {
+            continue;
+        }
+        let mut sum = 0;
+        for x in c.iter_mut() {
+            (*x, sum) = (sum, sum + *x);
+        }
+        for &i in &order {
+            let d = ((keys[i as usize] >> (p * BITS)) & MASK) as usize;
+            next[c[d] as usize] = i;
+            c[d] += 1;
+        }
+        std::mem::swap(&mut order, &mut next);
+    }
+    order
 }
 
 /// Sort key of face `f` along `axis`: its centroid coordinate as ordered bits, then its
@@ -270,9 +300,14 @@ impl SearchTree {
             .collect();
         let nbrs = face_neighbours(mesh);
         // The tree on one side, the vertex rings (topology only) on the other.
-        let ((nodes, order), ((ring_kind, (ring_start, ring_links)), faces)) = rayon::join(
+        let ((nodes, order), ((ring_kind, (ring_start, ring_links), pinched), faces)) = rayon::join(
             || build_tree(&centroids, &nbrs, PAR_BUILD_DEPTH),
-            || ((ring_kinds(mesh), ring_links(mesh)), mesh.faces().to_vec()),
+            || {
+                let kinds = ring_kinds(mesh);
+                let (start, links) = ring_links(mesh);
+                let pinched = ring_fans(&kinds, &start, &links);
+                ((kinds, (start, links), pinched), mesh.faces().to_vec())
+            },
         );
         let mut slot_of = vec![0u32; n];
         for (slot, &f) in order.iter().enumerate() {
@@ -284,7 +319,7 @@ impl SearchTree {
             .map(|&f| nbrs[f as usize].map(|g| if g == NO_FACE { NO_FACE } else { slot_of[g as usize] }))
             .collect();
         let DiskPatches { ranges: patch_ranges, edges: patch_edges, slots: node_slots } =
-            disk_patches(mesh.n_vertices(), &nodes, &slot_faces, &slot_nbrs, &ring_kind);
+            disk_patches(mesh.n_vertices(), &nodes, &slot_faces, &slot_nbrs, &ring_kind, &pinched);
         Self {
             leaf_verts: Arc::new(LeafVerts::of_slots(&slot_faces, &vec![0; n])),
             faces,
@@ -559,7 +594,8 @@ impl SelfIntersector {
     }
 }
 
-/// Tree construction state: edge neighbours (see [`face_neighbours`]), face centroids and
+/// Tree construction state: edge neighbours (see [`face_neighbours`]), face centroids, each
+/// face's rank along each axis in the order of [`axis_key`] and the faces by rank, and
 /// scratch.
 pub(super) struct Builder<'a> {
     pub(super) nbrs: &'a [[u32; 3]],
@@ -567,18 +603,57 @@ pub(super) struct Builder<'a> {
     /// second halves made on other threads).
     pub(super) base: usize,
     pub(super) centroids: &'a [Vec3],
+    /// Per face: its position in `by_rank[axis]`, per axis.
+    pub(super) rank: &'a [[u32; 3]],
+    /// Per axis: all faces sorted by [`axis_key`].
+    pub(super) by_rank: [&'a [u32]; 3],
     /// Per face: `2 node + side` of the split being made.
     pub(super) mark: Vec<u32>,
     /// Per face: the node whose growing split has queued it.
     pub(super) queued: Vec<u32>,
     /// Scratch of [`Self::partition`].
     pub(super) scratch: Vec<u32>,
-    pub(super) heap: std::collections::BinaryHeap<std::cmp::Reverse<(u64, u32)>>,
+    /// Ranks along the split axis of the faces queued by [`Self::grow_split`].
+    pub(super) queue: RankQueue,
     pub(super) strays: [Vec<usize>; 2],
     pub(super) notches: [Vec<usize>; 2],
+    pub(super) pairs: Vec<(usize, usize)>,
+    /// Per face listed in `cut`: its slot (in the slice this builder is given).
+    pub(super) slot_of: Vec<u32>,
+    /// The faces along the split being made and their neighbours (see
+    /// [`Self::swap_strays`]), and per face the node whose split has listed it.
+    pub(super) cut: Vec<u32>,
+    pub(super) cut_stamp: Vec<u32>,
 }
 
-impl Builder<'_> {
+impl<'a> Builder<'a> {
+    pub(super) fn new(
+        nbrs: &'a [[u32; 3]],
+        centroids: &'a [Vec3],
+        rank: &'a [[u32; 3]],
+        by_rank: [&'a [u32]; 3],
+        base: usize,
+    ) -> Self {
+        let n = centroids.len();
+        Builder {
+            nbrs,
+            centroids,
+            rank,
+            by_rank,
+            base,
+            mark: vec![u32::MAX; n],
+            queued: vec![u32::MAX; n],
+            scratch: Vec::new(),
+            queue: RankQueue::new(n),
+            strays: [Vec::new(), Vec::new()],
+            notches: [Vec::new(), Vec::new()],
+            pairs: Vec::new(),
+            slot_of: vec![0; n],
+            cut: Vec::new(),
+            cut_stamp: vec![u32::MAX; n],
+        }
+    }
+
     /// Builds the subtree over `order[lo..hi]` (split in two halves along the longest axis of
     /// the centroids, the first half grown across edges from the smallest centroid so that
     /// it stays connected, see [`Self::grow_split`]; leaf sizes a multiple of [`LEAF_SIZE`]
@@ -608,13 +683,10 @@ impl Builder<'_> {
         if hi - lo <= LEAF_SIZE {
             return id as u32;
         }
+        // Each list is sorted along its axis: its ends are the extreme centroids.
         let centroids = self.centroids;
-        let (mut cmin, mut cmax) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
-        for &f in &order[lo..hi] {
-            cmin = cmin.inf(&centroids[f as usize]);
-            cmax = cmax.sup(&centroids[f as usize]);
-        }
-        let ext = cmax - cmin;
+        let extent = |ax: usize| centroids[lists[ax][hi - 1] as usize][ax] - centroids[lists[ax][lo] as usize][ax];
+        let ext = Vec3::new(extent(0), extent(1), extent(2));
         let axis = if ext.x >= ext.y && ext.x >= ext.z {
             0
         } else if ext.y >= ext.z {
@@ -639,17 +711,7 @@ impl Builder<'_> {
                 list[..hi].split_at_mut(mid)
             });
             let (mut first_lists, mut second_lists) = ([x.0, y.0, z.0], [x.1, y.1, z.1]);
-            let mut other = Builder {
-                nbrs: self.nbrs,
-                centroids: self.centroids,
-                base: self.base + mid,
-                mark: vec![u32::MAX; self.mark.len()],
-                queued: vec![u32::MAX; self.queued.len()],
-                scratch: Vec::new(),
-                heap: std::collections::BinaryHeap::new(),
-                strays: [Vec::new(), Vec::new()],
-                notches: [Vec::new(), Vec::new()],
-            };
+            let mut other = Builder::new(self.nbrs, self.centroids, self.rank, self.by_rank, self.base + mid);
             let mut second_nodes = Vec::with_capacity(2 * (hi - mid) / LEAF_SIZE + 2);
             let (l, r) = rayon::join(
                 || self.node(nodes, first, &mut first_lists, lo, mid, par - 1),
@@ -688,17 +750,16 @@ impl Builder<'_> {
         id: u32,
     ) {
         let nbrs = self.nbrs;
-        let centroids = self.centroids;
-        let key = |f: u32| axis_key(centroids, axis, f);
+        let (rank, by_rank) = (self.rank, self.by_rank[axis]);
         let (unassigned, left) = (2 * id + 1, 2 * id);
         for &f in sorted {
             self.mark[f as usize] = unassigned;
         }
-        self.heap.clear();
+        self.queue.clear();
         let (mut taken, mut next_seed) = (0, 0);
         while taken < mid - lo {
-            let f = match self.heap.pop() {
-                Some(std::cmp::Reverse((_, f))) => f,
+            let f = match self.queue.pop() {
+                Some(r) => by_rank[r as usize],
                 None => {
                     while self.mark[sorted[next_seed] as usize] != unassigned {
                         next_seed += 1;
@@ -714,18 +775,44 @@ impl Builder<'_> {
             for g in nbrs[f as usize] {
                 if g != NO_FACE && self.mark[g as usize] == unassigned && self.queued[g as usize] != id {
                     self.queued[g as usize] = id;
-                    self.heap.push(std::cmp::Reverse(key(g)));
+                    self.queue.push(rank[g as usize][axis]);
+                }
+            }
+        }
+        // The faces along the cut and their neighbours in the node, for `swap_strays`:
+        // the second part's faces left in the queue (every one with a neighbour in the
+        // first part was queued), their neighbours in the first part, and the neighbours
+        // of those.
+        self.cut.clear();
+        for r in self.queue.iter() {
+            let g = by_rank[r as usize];
+            for h in std::iter::once(g).chain(nbrs[g as usize]) {
+                if h != NO_FACE && (h == g || self.mark[h as usize] == left) && self.cut_stamp[h as usize] != id {
+                    self.cut_stamp[h as usize] = id;
+                    self.cut.push(h);
+                }
+            }
+        }
+        for i in 0..self.cut.len() {
+            for h in nbrs[self.cut[i] as usize] {
+                if h != NO_FACE && self.mark[h as usize] >> 1 == id && self.cut_stamp[h as usize] != id {
+                    self.cut_stamp[h as usize] = id;
+                    self.cut.push(h);
                 }
             }
         }
         let (mut a, mut b) = (lo, mid);
         for &f in sorted {
-            if self.mark[f as usize] == left {
-                order[a] = f;
+            let slot = if self.mark[f as usize] == left {
                 a += 1;
+                a - 1
             } else {
-                order[b] = f;
                 b += 1;
+                b - 1
+            };
+            order[slot] = f;
+            if self.cut_stamp[f as usize] == id {
+                self.slot_of[f as usize] = slot as u32;
             }
         }
     }
@@ -733,27 +820,37 @@ impl Builder<'_> {
     /// Reorders `list` (a node's faces) so that the faces marked `left` come first, keeping
     /// the order within each part: a list sorted along an axis stays sorted in both halves.
     pub(super) fn partition(&mut self, list: &mut [u32], left: u32) {
+        // Without branches: every face is written to both parts, and only its own part's
+        // end moves on (`k ≤ i`, so the in-place writes never pass the reads).
         self.scratch.clear();
-        let mut k = 0;
+        self.scratch.resize(list.len(), 0);
+        let (mut k, mut r) = (0, 0);
         for i in 0..list.len() {
             let f = list[i];
-            if self.mark[f as usize] == left {
-                list[k] = f;
-                k += 1;
-            } else {
-                self.scratch.push(f);
-            }
+            let is_left = (self.mark[f as usize] == left) as usize;
+            list[k] = f;
+            self.scratch[r] = f;
+            k += is_left;
+            r += 1 - is_left;
         }
-        list[k..].copy_from_slice(&self.scratch);
+        list[k..].copy_from_slice(&self.scratch[..r]);
     }
 
+    /// Expects the marks [`Self::grow_split`] leaves: `2 id` on `order[lo..mid]`,
+    /// `2 id + 1` on `order[mid..hi]`.
     pub(super) fn swap_strays(&mut self, order: &mut [u32], lo: usize, mid: usize, hi: usize, id: u32) {
         let nbrs = self.nbrs;
-        for (k, &f) in order[lo..hi].iter().enumerate() {
-            self.mark[f as usize] = 2 * id + (lo + k >= mid) as u32;
-        }
+        debug_assert!(order[lo..hi]
+            .iter()
+            .enumerate()
+            .all(|(k, &f)| self.mark[f as usize] == 2 * id + (lo + k >= mid) as u32
+                && (self.cut_stamp[f as usize] != id || self.slot_of[f as usize] as usize == lo + k)));
         // Strays first, then notches (one neighbour on their side, two on the other),
         // per side; a stray is swapped with a stray of the other side, else with a notch.
+        // Both have a neighbour on the other side, so only the faces along the cut and
+        // their neighbours (`self.cut`, from `grow_split`; a swap moves faces of the cut,
+        // so the second pass's strays and notches are among them too) are counted; each
+        // list is then put in slot order.
         for _ in 0..2 {
             let mark = &self.mark;
             let count = |f: u32| {
@@ -768,32 +865,105 @@ impl Builder<'_> {
                 }
                 (same, other)
             };
-            for (side, range) in [(0, lo..mid), (1, mid..hi)] {
+            for side in 0..2 {
                 self.strays[side].clear();
                 self.notches[side].clear();
-                for slot in range {
-                    match count(order[slot]) {
-                        (0, o) if o > 0 => self.strays[side].push(slot),
-                        (1, 2) => self.notches[side].push(slot),
-                        _ => {}
-                    }
+            }
+            for &f in &self.cut {
+                let slot = self.slot_of[f as usize] as usize;
+                let side = (slot >= mid) as usize;
+                match count(f) {
+                    (0, o) if o > 0 => self.strays[side].push(slot),
+                    (1, 2) => self.notches[side].push(slot),
+                    _ => {}
                 }
+            }
+            for list in self.strays.iter_mut().chain(self.notches.iter_mut()) {
+                list.sort_unstable();
             }
             let [sl, sr] = [self.strays[0].len(), self.strays[1].len()];
             if sl + sr == 0 {
                 break;
             }
             let m = sl.min(sr);
-            let mut pairs: Vec<(usize, usize)> =
-                self.strays[0].iter().copied().zip(self.strays[1].iter().copied()).collect();
+            let mut pairs = std::mem::take(&mut self.pairs);
+            pairs.clear();
+            pairs.extend(self.strays[0].iter().copied().zip(self.strays[1].iter().copied()));
             pairs.extend(self.strays[0][m..].iter().copied().zip(self.notches[1].iter().copied()));
             pairs.extend(self.notches[0].iter().copied().zip(self.strays[1][m..].iter().copied()));
-            for (a, b) in pairs {
+            for &(a, b) in &pairs {
                 order.swap(a, b);
-                self.mark[order[a] as usize] = 2 * id;
-                self.mark[order[b] as usize] = 2 * id + 1;
+                let (fa, fb) = (order[a], order[b]);
+                self.mark[fa as usize] = 2 * id;
+                self.mark[fb as usize] = 2 * id + 1;
+                self.slot_of[fa as usize] = a as u32;
+                self.slot_of[fb as usize] = b as u32;
             }
+            self.pairs = pairs;
         }
+    }
+}
+
+/// A set of face ranks (below the number of faces), smallest first: one bit per rank, and
+/// the first word that may hold one. The split's queue grows along the split axis, so the
+/// ranks it pops mostly increase and each pop scans few words.
+pub(super) struct RankQueue {
+    words: Vec<u64>,
+    len: usize,
+    /// No rank lies in the words before it.
+    first: usize,
+    /// No rank lies in the words from it on.
+    end: usize,
+}
+
+impl RankQueue {
+    pub(super) fn new(n: usize) -> Self {
+        let words = vec![0; n.div_ceil(64)];
+        RankQueue { first: words.len(), words, len: 0, end: 0 }
+    }
+
+    /// Adds `r` (not in the set).
+    #[inline]
+    pub(super) fn push(&mut self, r: u32) {
+        let w = r as usize / 64;
+        self.words[w] |= 1 << (r % 64);
+        self.len += 1;
+        self.first = self.first.min(w);
+        self.end = self.end.max(w + 1);
+    }
+
+    /// Removes and returns the smallest rank.
+    #[inline]
+    pub(super) fn pop(&mut self) -> Option<u32> {
+        if self.len == 0 {
+            return None;
+        }
+        while self.words[self.first] == 0 {
+            self.first += 1;
+        }
+        let w = self.words[self.first];
+        self.words[self.first] = w & (w - 1);
+        self.len -= 1;
+        Some((self.first * 64) as u32 + w.trailing_zeros())
+    }
+
+    /// The ranks in the set, smallest first.
+    pub(super) fn iter(&self) -> impl Iterator<Item = u32> + '_ {
+        let words = if self.len > 0 { &self.words[self.first..self.end] } else { &[] };
+        words.iter().enumerate().flat_map(move |(i, &w)| {
+            let base = ((self.first + i) * 64) as u32;
+            std::iter::successors((w != 0).then_some(w), |&x| (x & (x - 1) != 0).then_some(x & (x - 1)))
+                .map(move |x| base + x.trailing_zeros())
+        })
+    }
+
+    pub(super) fn clear(&mut self) {
+        if self.len > 0 {
+            self.words[self.first..self.end].fill(0);
+        }
+        self.len = 0;
+        self.first = self.words.len();
+        self.end = 0;
     }
 }
 

@@ -146,90 +146,312 @@ pub(super) struct DiskPatches {
 
 /// Per node, the range of its boundary edges in the returned list when its faces form a
 /// topological disk of at least [`MIN_PATCH`] faces (an empty range otherwise), the list,
-/// and per node its range of slots. Topology only, computed once per tree. A face set is a disk when it is connected, every vertex's
-/// ring is one fan in the mesh ([`RING_CLOSED`] or [`RING_OPEN`]) with zero or two boundary
-/// edges of the set at that vertex (so the set is a surface with boundary), its boundary is
-/// not empty and its Euler characteristic `V − E + F` is 1 (`2 − 2g − b = 1` with `b ≥ 1`
-/// gives genus 0 and one boundary loop).
+/// and per node its range of slots. Topology only, computed once per tree. A face set is a
+/// disk when it is connected, every vertex's ring is one fan in the mesh ([`RING_CLOSED`] or
+/// [`RING_OPEN`]) with zero or two boundary edges of the set at that vertex (so the set is a
+/// surface with boundary), its boundary is not empty and its Euler characteristic
+/// `V − E + F` is 1 (`2 − 2g − b = 1` with `b ≥ 1` gives genus 0 and one boundary loop).
+///
+/// # Performance
+/// Computed bottom-up, each node from its children's [`NodeCount`] and boundary: the
+/// boundary of `A ∪ B` is theirs less the edges between them (each edge of `A`'s boundary
+/// whose face across lies in `B`, which also count as the union's interior edges); the
+/// vertices `A` and `B` share lie on both boundaries (a vertex whose ring is one fan and
+/// which lies inside `A` has its whole ring in `A`), so `V(A ∪ B) = V(A) + V(B) −` the
+/// vertices common to the two boundaries; the union of two connected sets is connected when
+/// they share an edge. Vertices whose ring is more than one fan ([`ring_fans`]) and
+/// unions of sets not known to be connected are counted and searched face by face, as is
+/// every leaf. Each node costs about its boundary, not its faces; the boundary edges are
+/// listed in slot order, then per slot in the order of [`crate::Topology::face_edges`].
 pub(super) fn disk_patches(
     n_vertices: usize,
     nodes: &[Node],
     slot_faces: &[[u32; 3]],
     slot_nbrs: &[[u32; 3]],
     kinds: &[u8],
+    pinched: &[bool],
 ) -> DiskPatches {
     let mut range = vec![[0u32; 2]; nodes.len()];
     for i in (0..nodes.len()).rev() {
         let nd = nodes[i];
         range[i] = if nd.leaf { [nd.a, nd.b] } else { [range[nd.a as usize][0], range[nd.b as usize][1]] };
     }
-    let mut out = vec![[0u32; 2]; nodes.len()];
-    let mut edges: Vec<[u32; 2]> = Vec::new();
-    let mut deg = vec![0u32; n_vertices];
-    let mut seen = vec![u32::MAX; n_vertices];
-    let mut reached_by = vec![u32::MAX; slot_faces.len()];
-    let (mut verts, mut stack) = (Vec::new(), Vec::new());
-    for (id, &[lo, hi]) in range.iter().enumerate() {
-        let id32 = id as u32;
-        let start = edges.len();
-        out[id] = [start as u32; 2];
-        if hi - lo < MIN_PATCH {
-            continue;
+    let mut b = DiskBuilder {
+        nodes,
+        slot_faces,
+        slot_nbrs,
+        kinds,
+        pinched,
+        range: &range,
+        ranges: vec![[0u32; 2]; nodes.len()],
+        edges: Vec::new(),
+        bnd: Vec::new(),
+        stamp_a: vec![u32::MAX; n_vertices],
+        stamp_b: vec![u32::MAX; n_vertices],
+        deg: vec![0u32; n_vertices],
+        reached_by: vec![u32::MAX; slot_faces.len()],
+        stack: Vec::new(),
+    };
+    if !nodes.is_empty() {
+        b.node(0);
+    }
+    let DiskBuilder { ranges, edges, .. } = b;
+    DiskPatches { ranges, edges, slots: range }
+}
+
+/// What [`disk_patches`] carries up the tree per node (its boundary lies on the builder's
+/// stack): the counts of its Euler characteristic and what its disk test needs.
+#[derive(Debug, Clone, Copy)]
+struct NodeCount {
+    /// Distinct vertices (exact where `ok`).
+    n_vertices: u32,
+    /// Edges between two of its faces.
+    n_interior: u32,
+    /// Every vertex's ring is one fan or an open fan in the mesh ([`RING_CLOSED`],
+    /// [`RING_OPEN`]).
+    ok: bool,
+    /// Some vertex's ring has more than one fan ([`ring_fans`]).
+    pinched: bool,
+    /// Edge-connected: `Some` when known.
+    connected: Option<bool>,
+}
+
+/// Scratch of [`disk_patches`].
+struct DiskBuilder<'a> {
+    nodes: &'a [Node],
+    slot_faces: &'a [[u32; 3]],
+    slot_nbrs: &'a [[u32; 3]],
+    kinds: &'a [u8],
+    pinched: &'a [bool],
+    range: &'a [[u32; 2]],
+    ranges: Vec<[u32; 2]>,
+    edges: Vec<[u32; 2]>,
+    /// The boundaries of the nodes being merged, each node's in slot order, children
+    /// before their parent replaces them.
+    bnd: Vec<BoundaryEdge>,
+    stamp_a: Vec<u32>,
+    stamp_b: Vec<u32>,
+    deg: Vec<u32>,
+    reached_by: Vec<u32>,
+    stack: Vec<u32>,
+}
+
+/// An edge of a node's boundary: the edge opposite corner `k` of the face in some slot,
+/// its vertices `(fv[k + 1], fv[k + 2])` and the slot of the face across (or [`NO_FACE`]).
+#[derive(Debug, Clone, Copy)]
+struct BoundaryEdge {
+    v: [u32; 2],
+    across: u32,
+}
+
+impl DiskBuilder<'_> {
+    /// Node `id`'s counts; its boundary is pushed on `bnd`, and its range set.
+    fn node(&mut self, id: usize) -> NodeCount {
+        let nd = self.nodes[id];
+        let [lo, hi] = self.range[id];
+        let start = self.bnd.len();
+        let count = if nd.leaf {
+            self.leaf(id as u32, lo, hi)
+        } else {
+            let a = self.node(nd.a as usize);
+            let split = self.bnd.len();
+            let b = self.node(nd.b as usize);
+            self.merge(id as u32, [lo, self.range[nd.a as usize][1], hi], a, b, start, split)
+        };
+        let mut count = count;
+        self.ranges[id] = [self.edges.len() as u32; 2];
+        if hi - lo >= MIN_PATCH && self.is_disk(id as u32, lo, hi, &mut count, start) {
+            let first = self.edges.len();
+            self.edges.extend(self.bnd[start..].iter().map(|e| e.v));
+            self.ranges[id] = [first as u32, self.edges.len() as u32];
         }
-        // Slots are contiguous per node; `NO_FACE` is never inside.
-        let inside = |slot: u32| (lo..hi).contains(&slot);
-        let mut half_interior = 0usize;
-        let mut manifold = true;
-        verts.clear();
-        for slot in lo as usize..hi as usize {
-            let fv = slot_faces[slot];
+        count
+    }
+
+    /// The counts of the faces in slots `lo..hi` (a leaf, at most [`LEAF_SIZE`] faces),
+    /// counted face by face (pushes their boundary).
+    fn leaf(&mut self, id: u32, lo: u32, hi: u32) -> NodeCount {
+        let mut count = NodeCount { n_vertices: 0, n_interior: 0, ok: true, pinched: false, connected: None };
+        let mut half_interior = 0;
+        // Per face, the smallest face (slot offset) it is linked to so far.
+        let mut root: [u32; LEAF_SIZE] = std::array::from_fn(|i| i as u32);
+        for slot in lo..hi {
+            let fv = self.slot_faces[slot as usize];
             for k in 0..3 {
                 let v = fv[k] as usize;
-                if seen[v] != id32 {
-                    seen[v] = id32;
-                    verts.push(v);
-                    manifold &= kinds[v] != RING_OTHER;
+                if self.stamp_a[v] != id {
+                    self.stamp_a[v] = id;
+                    count.n_vertices += 1;
+                    count.ok &= self.kinds[v] != RING_OTHER;
+                    count.pinched |= self.pinched[v];
                 }
-                if inside(slot_nbrs[slot][k]) {
+                let across = self.slot_nbrs[slot as usize][k];
+                if (lo..hi).contains(&across) {
                     half_interior += 1;
+                    let (x, y) = (root[(slot - lo) as usize], root[(across - lo) as usize]);
+                    for r in &mut root {
+                        if *r == x || *r == y {
+                            *r = x.min(y);
+                        }
+                    }
                 } else {
-                    let (a, b) = (fv[(k + 1) % 3], fv[(k + 2) % 3]);
-                    edges.push([a, b]);
-                    deg[a as usize] += 1;
-                    deg[b as usize] += 1;
+                    self.bnd.push(BoundaryEdge { v: [fv[(k + 1) % 3], fv[(k + 2) % 3]], across });
                 }
             }
         }
-        let n_boundary = edges.len() - start;
-        for &v in &verts {
-            manifold &= deg[v] == 0 || deg[v] == 2;
-            deg[v] = 0;
-        }
-        let euler = verts.len() as i64 - (half_interior / 2 + n_boundary) as i64 + (hi - lo) as i64;
-        let mut disk = manifold && euler == 1 && n_boundary > 0;
-        if disk {
-            reached_by[lo as usize] = id32;
-            stack.clear();
-            stack.push(lo);
-            let mut reached = 1;
-            while let Some(slot) = stack.pop() {
-                for g in slot_nbrs[slot as usize] {
-                    if inside(g) && reached_by[g as usize] != id32 {
-                        reached_by[g as usize] = id32;
-                        reached += 1;
-                        stack.push(g);
+        count.n_interior = half_interior / 2;
+        count.connected = Some(root[..(hi - lo) as usize].iter().all(|&r| r == 0));
+        count
+    }
+
+    /// The counts of the union of the children over slots `lo..mid` and `mid..hi`
+    /// (`[lo, mid, hi]`), whose boundaries are `bnd[start..split]` and `bnd[split..]`;
+    /// replaces them by the union's boundary.
+    fn merge(
+        &mut self,
+        id: u32,
+        [lo, mid, hi]: [u32; 3],
+        a: NodeCount,
+        b: NodeCount,
+        start: usize,
+        split: usize,
+    ) -> NodeCount {
+        let ok = a.ok && b.ok;
+        let pinched = a.pinched || b.pinched;
+        // Shared vertices, from the two boundaries (the vertex count matters only when
+        // every ring is one fan or an open fan, `ok`).
+        let mut shared_vertices = 0;
+        if ok && !pinched {
+            for e in &self.bnd[start..split] {
+                for v in e.v {
+                    self.stamp_a[v as usize] = id;
+                }
+            }
+            for e in &self.bnd[split..] {
+                for v in e.v {
+                    let v = v as usize;
+                    if self.stamp_a[v] == id && self.stamp_b[v] != id {
+                        self.stamp_b[v] = id;
+                        shared_vertices += 1;
                     }
                 }
             }
-            disk = reached == hi - lo;
         }
-        if disk {
-            out[id] = [start as u32, edges.len() as u32];
+        // The union's boundary, in place: each child's edges whose face across is not in
+        // the other child.
+        let mut shared_edges = 0;
+        let mut w = start;
+        for i in start..self.bnd.len() {
+            let e = self.bnd[i];
+            let other = if i < split { (mid..hi).contains(&e.across) } else { (lo..mid).contains(&e.across) };
+            shared_edges += (i < split && other) as u32;
+            self.bnd[w] = e;
+            w += !other as usize;
+        }
+        self.bnd.truncate(w);
+        let n_vertices = if ok && pinched {
+            self.count_vertices(id, lo, hi)
         } else {
-            edges.truncate(start);
-        }
+            (a.n_vertices + b.n_vertices).wrapping_sub(shared_vertices)
+        };
+        let connected = match (a.connected, b.connected) {
+            (Some(true), Some(true)) => Some(shared_edges > 0),
+            _ => None,
+        };
+        NodeCount { n_vertices, n_interior: a.n_interior + b.n_interior + shared_edges, ok, pinched, connected }
     }
-    DiskPatches { ranges: out, edges, slots: range }
+
+    /// Distinct vertices of the faces in slots `lo..hi`, counted face by face.
+    fn count_vertices(&mut self, id: u32, lo: u32, hi: u32) -> u32 {
+        let mut n = 0;
+        for slot in lo..hi {
+            for v in self.slot_faces[slot as usize] {
+                if self.stamp_a[v as usize] != id {
+                    self.stamp_a[v as usize] = id;
+                    n += 1;
+                }
+            }
+        }
+        n
+    }
+
+    /// Whether node `id` over slots `lo..hi`, with these counts and its boundary at
+    /// `bnd[start..]`, is a disk (see [`disk_patches`]); settles `count.connected` where it
+    /// searches the faces.
+    fn is_disk(&mut self, id: u32, lo: u32, hi: u32, count: &mut NodeCount, start: usize) -> bool {
+        let n_boundary = self.bnd.len() - start;
+        if !count.ok || n_boundary == 0 {
+            return false;
+        }
+        let mut manifold = true;
+        for e in &self.bnd[start..] {
+            for v in e.v {
+                self.deg[v as usize] += 1;
+            }
+        }
+        for e in &self.bnd[start..] {
+            for v in e.v {
+                let d = &mut self.deg[v as usize];
+                manifold &= *d == 0 || *d == 2;
+                *d = 0;
+            }
+        }
+        let euler = i64::from(count.n_vertices) - i64::from(count.n_interior) - n_boundary as i64 + i64::from(hi - lo);
+        if !(manifold && euler == 1) {
+            return false;
+        }
+        if count.connected.is_none() {
+            self.reached_by[lo as usize] = id;
+            self.stack.clear();
+            self.stack.push(lo);
+            let mut reached = 1;
+            while let Some(slot) = self.stack.pop() {
+                for g in self.slot_nbrs[slot as usize] {
+                    if (lo..hi).contains(&g) && self.reached_by[g as usize] != id {
+                        self.reached_by[g as usize] = id;
+                        reached += 1;
+                        self.stack.push(g);
+                    }
+                }
+            }
+            count.connected = Some(reached == hi - lo);
+        }
+        count.connected == Some(true)
+    }
+}
+
+/// Per vertex, whether its ring of faces is more than one fan (faces around it linked
+/// through the edges at it), from its wedges `links[start[s]..start[s + 1]]` (see
+/// [`ring_links`]; in a consistently oriented mesh, the wedge `(a, b)` is followed by the
+/// wedge `(b, c)` around the vertex). Topology only; only rings of kind [`RING_CLOSED`] or
+/// [`RING_OPEN`] are walked (the others are never part of a disk).
+pub(super) fn ring_fans(kinds: &[u8], start: &[u32], links: &[[u32; 2]]) -> Vec<bool> {
+    kinds
+        .iter()
+        .enumerate()
+        .map(|(s, &kind)| {
+            if kind == RING_OTHER {
+                return false;
+            }
+            let ring = &links[start[s] as usize..start[s + 1] as usize];
+            // Walk from a wedge whose `a` ends no wedge (an open fan's first), or any.
+            let first = if kind == RING_CLOSED {
+                0
+            } else {
+                ring.iter().position(|w| !ring.iter().any(|x| x[1] == w[0])).unwrap_or(0)
+            };
+            let mut at = ring[first];
+            let mut steps = 1;
+            while let Some(next) = ring.iter().find(|x| x[0] == at[1]) {
+                if *next == ring[first] || steps > ring.len() {
+                    break;
+                }
+                at = *next;
+                steps += 1;
+            }
+            steps != ring.len()
+        })
+        .collect()
 }
 
 /// Per face, the face across each of its edges (`[k]`: across the edge opposite vertex `k`,

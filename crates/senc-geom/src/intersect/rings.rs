@@ -16,38 +16,32 @@ pub(super) const RING_NO: u8 = 2;
 /// Per vertex, the shape of its ring of faces (topology only): one closed fan (every
 /// neighbour in exactly two ring faces), one open fan (exactly two neighbours once, the rest
 /// twice), or anything else (a pinched or empty ring).
+///
+/// A neighbour `v` of `s` lies in as many ring faces as the edge `(s, v)` has faces (one or
+/// two: a [`Topology`] has no edge of more), so the kind follows from the number of
+/// boundary edges at `s`: none (closed), two (open), any other number (other); a vertex of
+/// no face is other.
 pub(super) fn ring_kinds(mesh: &TriMesh) -> Vec<u8> {
     let topo = mesh.topology();
-    let faces = mesh.faces();
-    (0..mesh.n_vertices() as u32)
-        .into_par_iter()
-        .with_min_len(512)
-        .map(|s| {
-            let ring = topo.vertex_faces(s);
-            if ring.is_empty() {
-                return RING_OTHER;
-            }
-            let mut count: smallvec::SmallVec<[(u32, u8); 16]> = smallvec::SmallVec::new();
-            for &f in ring {
-                for v in faces[f as usize] {
-                    if v == s {
-                        continue;
-                    }
-                    match count.iter_mut().find(|e| e.0 == v) {
-                        Some(e) => e.1 = e.1.saturating_add(1),
-                        None => count.push((v, 1)),
-                    }
-                }
-            }
-            let n_once = count.iter().filter(|e| e.1 == 1).count();
-            if count.iter().any(|e| e.1 > 2) {
+    let mut n_boundary = vec![0u8; mesh.n_vertices()];
+    for (&[a, b], &[_, g]) in topo.edges().iter().zip(topo.edge_faces()) {
+        if g == NO_FACE {
+            n_boundary[a as usize] = n_boundary[a as usize].saturating_add(1);
+            n_boundary[b as usize] = n_boundary[b as usize].saturating_add(1);
+        }
+    }
+    n_boundary
+        .iter()
+        .enumerate()
+        .map(|(s, &nb)| {
+            if topo.vertex_faces(s as u32).is_empty() {
                 RING_OTHER
-            } else if n_once == 0 {
-                RING_CLOSED
-            } else if n_once == 2 {
-                RING_OPEN
             } else {
-                RING_OTHER
+                match nb {
+                    0 => RING_CLOSED,
+                    2 => RING_OPEN,
+                    _ => RING_OTHER,
+                }
             }
         })
         .collect()

@@ -478,3 +478,233 @@ fn normal_cones_bound_every_normal_they_hold() {
     assert!(NormalCone::of_units(&[Vec3::z(), -Vec3::z()], true).direction().is_none());
     assert!(NormalCone::of_units(&[Vec3::z()], false).direction().is_none());
 }
+
+/// [`disk_patches`] computed face by face for every node: the reference of the bottom-up
+/// version.
+fn disk_patches_by_faces(
+    n_vertices: usize,
+    nodes: &[Node],
+    slot_faces: &[[u32; 3]],
+    slot_nbrs: &[[u32; 3]],
+    kinds: &[u8],
+) -> DiskPatches {
+    let mut range = vec![[0u32; 2]; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let nd = nodes[i];
+        range[i] = if nd.leaf { [nd.a, nd.b] } else { [range[nd.a as usize][0], range[nd.b as usize][1]] };
+    }
+    let mut out = vec![[0u32; 2]; nodes.len()];
+    let mut edges: Vec<[u32; 2]> = Vec::new();
+    let mut deg = vec![0u32; n_vertices];
+    let mut seen = vec![u32::MAX; n_vertices];
+    let mut reached_by = vec![u32::MAX; slot_faces.len()];
+    let (mut verts, mut stack) = (Vec::new(), Vec::new());
+    for (id, &[lo, hi]) in range.iter().enumerate() {
+        let id32 = id as u32;
+        let start = edges.len();
+        out[id] = [start as u32; 2];
+        if hi - lo < MIN_PATCH {
+            continue;
+        }
+        // Slots are contiguous per node; `NO_FACE` is never inside.
+        let inside = |slot: u32| (lo..hi).contains(&slot);
+        let mut half_interior = 0usize;
+        let mut manifold = true;
+        verts.clear();
+        for slot in lo as usize..hi as usize {
+            let fv = slot_faces[slot];
+            for k in 0..3 {
+                let v = fv[k] as usize;
+                if seen[v] != id32 {
+                    seen[v] = id32;
+                    verts.push(v);
+                    manifold &= kinds[v] != RING_OTHER;
+                }
+                if inside(slot_nbrs[slot][k]) {
+                    half_interior += 1;
+                } else {
+                    let (a, b) = (fv[(k + 1) % 3], fv[(k + 2) % 3]);
+                    edges.push([a, b]);
+                    deg[a as usize] += 1;
+                    deg[b as usize] += 1;
+                }
+            }
+        }
+        let n_boundary = edges.len() - start;
+        for &v in &verts {
+            manifold &= deg[v] == 0 || deg[v] == 2;
+            deg[v] = 0;
+        }
+        let euler = verts.len() as i64 - (half_interior / 2 + n_boundary) as i64 + (hi - lo) as i64;
+        let mut disk = manifold && euler == 1 && n_boundary > 0;
+        if disk {
+            reached_by[lo as usize] = id32;
+            stack.clear();
+            stack.push(lo);
+            let mut reached = 1;
+            while let Some(slot) = stack.pop() {
+                for g in slot_nbrs[slot as usize] {
+                    if inside(g) && reached_by[g as usize] != id32 {
+                        reached_by[g as usize] = id32;
+                        reached += 1;
+                        stack.push(g);
+                    }
+                }
+            }
+            disk = reached == hi - lo;
+        }
+        if disk {
+            out[id] = [start as u32, edges.len() as u32];
+        } else {
+            edges.truncate(start);
+        }
+    }
+    DiskPatches { ranges: out, edges, slots: range }
+}
+
+/// [`ring_kinds`] by counting, per vertex, the ring faces that hold each neighbour.
+fn ring_kinds_by_counting(mesh: &TriMesh) -> Vec<u8> {
+    let faces = mesh.faces();
+    (0..mesh.n_vertices() as u32)
+        .map(|s| {
+            let ring = mesh.topology().vertex_faces(s);
+            if ring.is_empty() {
+                return RING_OTHER;
+            }
+            let mut count: Vec<(u32, u8)> = Vec::new();
+            for &f in ring {
+                for v in faces[f as usize] {
+                    if v == s {
+                        continue;
+                    }
+                    match count.iter_mut().find(|e| e.0 == v) {
+                        Some(e) => e.1 += 1,
+                        None => count.push((v, 1)),
+                    }
+                }
+            }
+            let n_once = count.iter().filter(|e| e.1 == 1).count();
+            match (count.iter().any(|e| e.1 > 2), n_once) {
+                (true, _) => RING_OTHER,
+                (false, 0) => RING_CLOSED,
+                (false, 2) => RING_OPEN,
+                _ => RING_OTHER,
+            }
+        })
+        .collect()
+}
+
+/// Two icospheres sharing one vertex (its ring is two closed fans), an open tube whose rim
+/// vertex also closes a cone (an open and a closed fan), and a sheet.
+fn pinched_meshes() -> Vec<TriMesh> {
+    let a = shapes::icosphere(Vec3::zeros(), 1.0, 2).unwrap();
+    let top = (0..a.n_vertices()).max_by(|&i, &j| a.positions()[i].z.total_cmp(&a.positions()[j].z)).unwrap();
+    let shift = Vec3::new(0.0, 0.0, 2.0 * a.positions()[top].z);
+    let bottom = (0..a.n_vertices()).min_by(|&i, &j| a.positions()[i].z.total_cmp(&a.positions()[j].z)).unwrap();
+    // The second sphere, moved up so that its bottom vertex meets the first's top one.
+    let n = a.n_vertices() as u32;
+    let mut pos: Vec<Vec3> = a.positions().to_vec();
+    pos.extend(a.positions().iter().map(|p| p + shift));
+    let remap = |v: u32| if v == bottom as u32 { top as u32 } else { v + n };
+    let mut faces: Vec<[u32; 3]> = a.faces().to_vec();
+    faces.extend(a.faces().iter().map(|f| f.map(remap)));
+    let spheres = TriMesh::new(pos, faces).unwrap();
+    let tube = shapes::tube(0.5, 1.0, 16, 8, shapes::Caps::Open).unwrap();
+    // A closed cone of 6 faces on the first rim vertex.
+    let apex = 0u32;
+    let mut pos: Vec<Vec3> = tube.positions().to_vec();
+    let base = pos.len() as u32;
+    let p0 = pos[apex as usize];
+    for k in 0..6 {
+        let t = k as f64 * std::f64::consts::TAU / 6.0;
+        pos.push(p0 + Vec3::new(-0.2, 0.1 * t.cos(), 0.1 * t.sin()));
+    }
+    pos.push(p0 + Vec3::new(-0.3, 0.0, 0.0));
+    let mut faces: Vec<[u32; 3]> = tube.faces().to_vec();
+    for k in 0..6u32 {
+        faces.push([apex, base + (k + 1) % 6, base + k]);
+        faces.push([base + 6, base + k, base + (k + 1) % 6]);
+    }
+    let tube_cone = TriMesh::new(pos, faces).unwrap();
+    // A sheet with two interior vertices far apart made one (two closed fans, linked
+    // through the sheet: the sheet is no disk, though its Euler count without the pinch
+    // would say so).
+    let sheet = shapes::grid_sheet(1.0, 1.0, 24, 9).unwrap();
+    let near = |x: f64, y: f64| {
+        (0..sheet.n_vertices() as u32)
+            .min_by(|&i, &j| {
+                let d = |k: u32| (sheet.positions()[k as usize] - Vec3::new(x, y, 0.0)).norm();
+                d(i).total_cmp(&d(j))
+            })
+            .unwrap()
+    };
+    let (p, q) = (near(0.2, 0.5), near(0.8, 0.5));
+    let faces: Vec<[u32; 3]> = sheet.faces().iter().map(|f| f.map(|v| if v == q { p } else { v })).collect();
+    let pinched_sheet = TriMesh::new(sheet.positions().to_vec(), faces).unwrap();
+    vec![spheres, tube_cone, pinched_sheet, shapes::grid_sheet(1.0, 1.0, 12, 9).unwrap()]
+}
+
+#[test]
+fn ring_kinds_match_the_neighbour_count() {
+    let mut meshes = pinched_meshes();
+    meshes.push(shapes::garment_benchmark().unwrap());
+    for f in shapes::FIXTURES {
+        meshes.push(shapes::fixture(f.name).unwrap());
+    }
+    for m in &meshes {
+        assert_eq!(ring_kinds(m), ring_kinds_by_counting(m));
+    }
+    let (start, links) = ring_links(&meshes[0]);
+    let pinched = ring_fans(&ring_kinds(&meshes[0]), &start, &links);
+    assert_eq!(pinched.iter().filter(|&&p| p).count(), 1, "the spheres' shared vertex");
+    let (start, links) = ring_links(&meshes[1]);
+    assert_eq!(ring_fans(&ring_kinds(&meshes[1]), &start, &links).iter().filter(|&&p| p).count(), 1);
+    let (start, links) = ring_links(&meshes[2]);
+    assert_eq!(ring_fans(&ring_kinds(&meshes[2]), &start, &links).iter().filter(|&&p| p).count(), 1);
+}
+
+#[test]
+fn disk_patches_bottom_up_match_the_face_by_face_count() {
+    let mut meshes = pinched_meshes();
+    meshes.push(shapes::garment_benchmark().unwrap());
+    for f in shapes::FIXTURES {
+        meshes.push(shapes::fixture(f.name).unwrap());
+    }
+    let mut n_disks = 0;
+    for m in &meshes {
+        let ix = SelfIntersector::new(m);
+        let t = &ix.tree;
+        let order = &t.order;
+        let nbrs = face_neighbours(m);
+        let mut slot_of = vec![0u32; order.len()];
+        for (slot, &f) in order.iter().enumerate() {
+            slot_of[f as usize] = slot as u32;
+        }
+        let slot_nbrs: Vec<[u32; 3]> = order
+            .iter()
+            .map(|&f| nbrs[f as usize].map(|g| if g == NO_FACE { NO_FACE } else { slot_of[g as usize] }))
+            .collect();
+        let reference = disk_patches_by_faces(m.n_vertices(), &t.nodes, &t.slot_faces, &slot_nbrs, &t.ring_kind);
+        assert_eq!(reference.slots, t.node_slots);
+        for (i, (&[a, b], &[c, d])) in reference.ranges.iter().zip(&t.patch_ranges).enumerate() {
+            assert_eq!(reference.edges[a as usize..b as usize], t.patch_edges[c as usize..d as usize], "node {i}");
+            n_disks += (a < b) as usize;
+        }
+    }
+    assert!(n_disks > 100, "{n_disks} disks");
+}
+
+#[test]
+fn radix_order_sorts_by_key_then_index() {
+    let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+    for n in [0usize, 1, 7, 1000, 5000] {
+        // Few distinct keys (ties broken by index), and keys spread over all 64 bits.
+        let small: Vec<u64> = (0..n).map(|_| rng.random_range(0..5u64) << 40).collect();
+        let wide: Vec<u64> = (0..n).map(|_| rng.random::<u64>()).collect();
+        for keys in [small, wide] {
+            let mut expected: Vec<u32> = (0..n as u32).collect();
+            expected.sort_by_key(|&i| (keys[i as usize], i));
+            assert_eq!(radix_order(&keys), expected);
+        }
+    }
+}
