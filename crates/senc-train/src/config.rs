@@ -121,6 +121,10 @@ pub struct TrainConfig {
     /// `Garment::relax_start`: the scene's material, phase-1 energy, zero velocity, static
     /// body; the skinned velocity is kept). Default 4; 0 uses the skinned state as it is.
     pub relax_start_iterations: usize,
+    /// Length of the one implicit step that relaxes a start, s. One frame (1/30 s) leaves
+    /// the garment partly settled; a long step weakens the inertia term, so the relaxed
+    /// garment hangs near its static equilibrium in the start's pose.
+    pub relax_start_dt: f64,
     /// Draw each sequence's material from HOOD's ranges (else the scene's material).
     pub random_material: bool,
     /// Largest magnitude of the random external acceleration per sequence, m/s² (SENC: 10).
@@ -184,6 +188,7 @@ impl Default for TrainConfig {
             max_start_penetration: 0.005,
             start_tries: 20,
             relax_start_iterations: 4,
+            relax_start_dt: 1.0 / 30.0,
             random_material: true,
             external_max: 10.0,
             body_margin: 0.12,
@@ -509,6 +514,9 @@ impl RunConfig {
         }
         if !(t.external_max.is_finite() && t.external_max >= 0.0) {
             return bad(format!("[train] external_max = {} must be >= 0", t.external_max));
+        }
+        if !(t.relax_start_dt.is_finite() && t.relax_start_dt > 0.0) {
+            return bad(format!("[train] relax_start_dt = {} must be a positive number of seconds", t.relax_start_dt));
         }
         if !(0.0..=1.0).contains(&t.first_step_probability) {
             return bad(format!("[train] first_step_probability = {} must be in [0, 1]", t.first_step_probability));

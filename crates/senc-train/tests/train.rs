@@ -587,3 +587,30 @@ fn material_tables_fill_hoods_defaults_and_convert_young_and_poisson() {
     let mixed = MaterialConfig { young: Some(1000.0), lame_mu: Some(3.0), ..Default::default() };
     assert!(material_from_config(&mixed).is_err());
 }
+
+/// The resting-case check on the smoke skirt and a held pose: an untrained network against
+/// the solver reports its one-step error from 6 of each rollout's frame pairs (frames 2 to
+/// 7 of 8), finite, with the mean offset no larger than the mean distance; a rollout
+/// compared with itself is at distance zero.
+#[test]
+fn against_solver_reports_one_step_errors_on_both_rollouts() {
+    use senc_train::garment::Garment;
+    use senc_train::resting::{against_solver, compare};
+    use senc_train::trainer::scene_material;
+    let cfg = senc_train::RunConfig::read(root().join("configs/smoke.toml")).unwrap();
+    let g = Garment::load(&senc_train::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
+    let motion = g.scene.resolve_motion(root().join("data/motions/cmu_01_01_held.msgpack").to_str().unwrap()).unwrap();
+    let material = scene_material(&g).unwrap();
+    let energy = cfg.energy_for(Phase::Two, material, [0.0; 3]);
+    let model = Model::new(cfg.model.network.clone(), cfg.model.graph, 5, &Device::flex());
+    let (c, network, reference) = against_solver(&model, &g, &motion, 8, &material, &energy, 5).unwrap();
+    assert_eq!(c.frames, 8);
+    for e in [c.on_solver_states, c.on_network_states] {
+        assert_eq!(e.steps, 6, "{c:?}");
+        assert!(e.distance_cm.is_finite() && e.distance_cm > 0.0, "{c:?}");
+        assert!(e.rise_cm.abs() <= e.distance_cm + 1e-12, "{c:?}");
+    }
+    let same = compare(&reference, &reference);
+    assert_eq!(same.final_distance_cm, 0.0);
+    assert!(compare(&network, &reference).max_distance_cm > 0.0);
+}

@@ -171,7 +171,7 @@ impl Trainer {
             }
             if self.relax_energy[gi].is_none() {
                 let ec = self.config.energy_for(Phase::One, scene_material(g)?, [0.0; 3]);
-                self.relax_energy[gi] = Some(g.energy_model(ec, g.scene.dt())?);
+                self.relax_energy[gi] = Some(g.energy_model(ec, t.relax_start_dt)?);
             }
             let em = self.relax_energy[gi].as_ref().expect("built above");
             g.relax_start(em, &mut prev, &mut curr, &g.body_at(motion, frame)?, t.relax_start_iterations)?;
