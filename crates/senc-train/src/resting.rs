@@ -11,7 +11,7 @@ use serde::Serialize;
 use crate::error::TrainError;
 use crate::garment::Garment;
 use crate::metrics::{mean_distance, mean_rise};
-use crate::rollout::{network_rollout, solver_rollout, Rollout};
+use crate::rollout::{network_rollout, solver_rollout, solver_step, Rollout};
 
 /// How far a network's rollout is from the reference solver's on the same motion.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -93,7 +93,8 @@ pub fn compare(network: &Rollout, reference: &Rollout) -> SolverComparison {
 }
 
 /// The mean one-step error of `model` against `iterations` Newton iterations of `em` from
-/// at most [`ONE_STEP_SAMPLES`] evenly spaced frame pairs of `states` (frame 2 on), each step taken on `states`' own body frames.
+/// at most [`ONE_STEP_SAMPLES`] evenly spaced frame pairs of `states` (frame 2 on), each
+/// step taken on `states`' own body frames.
 fn one_step_error(
     model: &Model,
     g: &Garment,
@@ -115,13 +116,11 @@ fn one_step_error(
         let frame = g.frame_state([prev, curr], [body_t, body_n], *material, accel, g.scene.dt());
         let mut net = stepper.step(&frame)?;
         let fe = em.frame(curr, prev, Some((body_t, body_n)))?;
-        let mut start: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| curr.to_vec());
-        if !g.pinned.is_empty() {
-            let pins = g.skinned_at(motion, f + 1)?;
-            g.pin_from(&mut net, &pins);
-            g.pin_from(&mut start, &pins);
+        let pins = if g.pinned.is_empty() { None } else { Some(g.skinned_at(motion, f + 1)?) };
+        if let Some(p) = &pins {
+            g.pin_from(&mut net, p);
         }
-        let (sol, _) = senc_energy::solve(&fe, &start, &opts)?;
+        let sol = solver_step(g, &fe, curr, pins.as_deref(), &opts)?;
         distance += 100.0 * mean_distance(&net, &sol);
         rise += 100.0 * mean_rise(&net, &sol);
         steps += 1;

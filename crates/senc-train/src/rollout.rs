@@ -238,12 +238,25 @@ pub fn solver_rollout(
     roll(g, motion, frames, g.skinned_at(motion, 0)?, |s| {
         let em = if s.first { &em_first } else { &em };
         let fe = em.frame(s.curr, s.prev, Some((s.body_t, s.body_next)))?;
-        let mut start: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| s.curr.to_vec());
-        if let Some(p) = s.pins {
-            g.pin_from(&mut start, p);
-        }
-        Ok(senc_energy::solve(&fe, &start, &opts)?.0)
+        solver_step(g, &fe, s.curr, s.pins, &opts)
     })
+}
+
+/// One step of the reference solver on the frame energy `fe` of the state whose current
+/// positions are `curr`: Newton from the inertial target (from `curr` when the energy has
+/// no inertia), with the pinned vertices at `pins` when the garment has any.
+pub(crate) fn solver_step(
+    g: &Garment,
+    fe: &senc_energy::FrameEnergy<'_>,
+    curr: &[Vec3],
+    pins: Option<&[Vec3]>,
+    opts: &senc_energy::SolverOptions,
+) -> Result<Vec<Vec3>, TrainError> {
+    let mut start: Vec<Vec3> = fe.inertial_target().map(|t| t.to_vec()).unwrap_or_else(|| curr.to_vec());
+    if let Some(p) = pins {
+        g.pin_from(&mut start, p);
+    }
+    Ok(senc_energy::solve(fe, &start, opts)?.0)
 }
 
 #[cfg(test)]
