@@ -39,17 +39,36 @@ impl Topology {
     /// with [`MeshError::InconsistentOrientation`] when two faces traverse an edge the same
     /// way. Indices must already be in range and distinct within each face.
     pub fn new(faces: &[[u32; 3]], n_vertices: usize) -> Result<Self, MeshError> {
-        // Half-edges keyed by the undirected edge, sorted so that the result is deterministic.
-        let mut half: Vec<([u32; 2], u32, u8)> = Vec::with_capacity(faces.len() * 3);
-        for (f, face) in faces.iter().enumerate() {
+        // Half-edges keyed by the undirected edge, sorted so that the result is deterministic:
+        // in increasing `(key, face, k)` order. A counting sort on the key's smaller vertex
+        // keeps each vertex's half-edges in `(face, k)` order; a stable sort of those few on
+        // the larger vertex completes the order.
+        let key = |face: &[u32; 3], k: usize| {
+            let (a, b) = (face[(k + 1) % 3], face[(k + 2) % 3]);
+            [a.min(b), a.max(b)]
+        };
+        let mut start = vec![0u32; n_vertices + 1];
+        for face in faces {
             for k in 0..3 {
-                let a = face[(k + 1) % 3];
-                let b = face[(k + 2) % 3];
-                half.push(([a.min(b), a.max(b)], f as u32, k as u8));
+                start[key(face, k)[0] as usize + 1] += 1;
             }
         }
-        half.sort_unstable();
-
+        for v in 0..n_vertices {
+            start[v + 1] += start[v];
+        }
+        let mut half: Vec<([u32; 2], u32, u8)> = vec![([0; 2], 0, 0); faces.len() * 3];
+        let mut next = start.clone();
+        for (f, face) in faces.iter().enumerate() {
+            for k in 0..3 {
+                let e = key(face, k);
+                let slot = &mut next[e[0] as usize];
+                half[*slot as usize] = (e, f as u32, k as u8);
+                *slot += 1;
+            }
+        }
+        for v in 0..n_vertices {
+            half[start[v] as usize..start[v + 1] as usize].sort_by_key(|h| h.0[1]);
+        }
         let mut edges = Vec::with_capacity(half.len() / 2 + 1);
         let mut edge_faces = Vec::with_capacity(half.len() / 2 + 1);
         let mut face_edges = vec![[0u32; 3]; faces.len()];
@@ -265,4 +284,53 @@ fn components(n_faces: usize, edge_faces: &[[u32; 2]]) -> (Vec<u32>, usize) {
         comp[f] = label[r];
     }
     (comp, n as usize)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The edge tables equal those of the half-edges sorted by comparison, on a grid whose
+    /// vertex ids are shuffled.
+    #[test]
+    fn edge_tables_match_a_comparison_sort() {
+        let (nx, ny) = (12u32, 9u32);
+        let n = ((nx + 1) * (ny + 1)) as usize;
+        let mut perm: Vec<u32> = (0..n as u32).collect();
+        let mut seed = 12345u64;
+        for i in (1..n).rev() {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            perm.swap(i, (seed >> 33) as usize % (i + 1));
+        }
+        let id = |i: u32, j: u32| perm[(j * (nx + 1) + i) as usize];
+        let mut faces = Vec::new();
+        for j in 0..ny {
+            for i in 0..nx {
+                let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+                faces.extend([[a, b, c], [a, c, d]]);
+            }
+        }
+        let t = Topology::new(&faces, n).unwrap();
+        let mut half: Vec<([u32; 2], u32, u8)> = Vec::new();
+        for (f, face) in faces.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (face[(k + 1) % 3], face[(k + 2) % 3]);
+                half.push(([a.min(b), a.max(b)], f as u32, k as u8));
+            }
+        }
+        half.sort_unstable();
+        let (mut edges, mut edge_faces, mut face_edges) = (Vec::new(), Vec::new(), vec![[0u32; 3]; faces.len()]);
+        for h in &half {
+            if edges.last() != Some(&h.0) {
+                edges.push(h.0);
+                edge_faces.push([h.1, NO_FACE]);
+            } else {
+                edge_faces.last_mut().unwrap()[1] = h.1;
+            }
+            face_edges[h.1 as usize][h.2 as usize] = edges.len() as u32 - 1;
+        }
+        assert_eq!(t.edges(), edges.as_slice());
+        assert_eq!(t.edge_faces(), edge_faces.as_slice());
+        assert_eq!(t.face_edges(), face_edges.as_slice());
+    }
 }
