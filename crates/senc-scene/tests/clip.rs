@@ -389,3 +389,42 @@ fn scene_motions_are_names_or_files() {
     assert!(matches!(&r, Err(SceneError::NoSuchMotion { name, .. }) if name.ends_with("cmu_99_99")), "{r:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The DeepMimic clips in `data/clips/deepmimic/` (60 fps, converted by
+/// `tools/clips/deepmimic2bvh.py`) read through the joint map beside each file, resample
+/// to the scene's 30 fps, and skin to a finite body whose lowest point stays within 10 cm
+/// of the rest pose's on the walks and within 60 cm on the rest (jumps, kicks, spins).
+#[test]
+fn deepmimic_clips_read_through_their_joint_maps_and_resample_to_the_scene() {
+    let body = body();
+    let cfg = scene_config();
+    let dir = root().join("data/clips/deepmimic");
+    let mut clips: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "bvh"))
+        .collect();
+    clips.sort();
+    assert_eq!(clips.len(), 14, "{clips:?}");
+    let rest_low = body.positions.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
+    for path in &clips {
+        assert!(JointMap::beside(path).is_some(), "{}: no joint map beside it", path.display());
+        let bvh = Bvh::read(path).unwrap();
+        let m = read_motion(path, &body.skeleton).unwrap();
+        m.check(&body.skeleton).unwrap();
+        let p = prepare(m, &cfg).unwrap();
+        let clip_frames = p.n_frames() - cfg.lead_in_frames;
+        let expected = (bvh.frames.len() as f64 * cfg.fps * bvh.frame_time).round() as usize;
+        assert!(clip_frames.abs_diff(expected) <= 1, "{}: {clip_frames} frames, expected {expected}", path.display());
+        // Walks keep a foot down; dances, kicks, jumps and spins leave the ground or crouch.
+        let walk = path.file_name().is_some_and(|n| n.to_string_lossy().contains("walk"));
+        let reach = if walk { 0.10 } else { 0.60 };
+        for f in (0..p.n_frames()).step_by(5) {
+            let tr = body.skeleton.bone_transforms(&p.pose(f).unwrap()).unwrap();
+            let x = skin(&body.positions, &body.weights, &tr);
+            assert!(x.iter().all(|q| q.iter().all(|c| c.is_finite())), "{}: frame {f}", path.display());
+            let low = x.iter().map(|q| q.y).fold(f64::INFINITY, f64::min);
+            assert!((low - rest_low).abs() < reach, "{}: frame {f}: lowest {low:.3} m, rest {rest_low:.3} m", path.display());
+        }
+    }
+}
