@@ -424,7 +424,11 @@ fn deepmimic_clips_read_through_their_joint_maps_and_resample_to_the_scene() {
             let x = skin(&body.positions, &body.weights, &tr);
             assert!(x.iter().all(|q| q.iter().all(|c| c.is_finite())), "{}: frame {f}", path.display());
             let low = x.iter().map(|q| q.y).fold(f64::INFINITY, f64::min);
-            assert!((low - rest_low).abs() < reach, "{}: frame {f}: lowest {low:.3} m, rest {rest_low:.3} m", path.display());
+            assert!(
+                (low - rest_low).abs() < reach,
+                "{}: frame {f}: lowest {low:.3} m, rest {rest_low:.3} m",
+                path.display()
+            );
         }
     }
 }
