@@ -390,7 +390,7 @@ fn scene_motions_are_names_or_files() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// The DeepMimic clips in `data/clips/deepmimic/` (60 fps, converted by
+/// The DeepMimic clips in `data/clips/deepmimic/` (24, 30 and 60 fps, converted by
 /// `tools/clips/deepmimic2bvh.py`) read through the joint map beside each file, resample
 /// to the scene's 30 fps, and skin to a finite body whose lowest point stays within 10 cm
 /// of the rest pose's on the walks and within 60 cm on the rest (jumps, kicks, spins).
