@@ -32,16 +32,16 @@ fn scene_config() -> SceneConfig {
     SceneConfig::read(root().join("configs/tshirt.toml")).unwrap()
 }
 
-/// Skinned body at every 7th frame: all finite, and the feet on the ground (the lowest
-/// vertex within 10 cm of the rest pose's).
-fn check_body_motion(body: &BodyAsset, m: &Motion) {
+/// Skinned body at every 7th frame: all finite, and the lowest vertex within `reach` (m) of
+/// the rest pose's (0.10: the feet on the ground).
+fn check_body_motion(body: &BodyAsset, m: &Motion, reach: f64) {
     let rest_low = body.positions.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
     for f in (0..m.n_frames()).step_by(7) {
         let tr = body.skeleton.bone_transforms(&m.pose(f).unwrap()).unwrap();
         let x = skin(&body.positions, &body.weights, &tr);
         assert!(x.iter().all(|p| p.iter().all(|c| c.is_finite())), "{}: frame {f} not finite", m.name);
         let low = x.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
-        assert!((low - rest_low).abs() < 0.10, "{}: frame {f}: lowest point {low:.3} m, rest {rest_low:.3} m", m.name);
+        assert!((low - rest_low).abs() < reach, "{}: frame {f}: lowest point {low:.3} m, rest {rest_low:.3} m", m.name);
     }
 }
 
@@ -76,7 +76,7 @@ fn mixamo_clip_retargets_through_the_builtin_map() {
     assert_eq!(m.n_frames(), 69);
     assert!((m.fps - 30.0).abs() < 1e-3, "{}", m.fps);
     m.check(&body.skeleton).unwrap();
-    check_body_motion(&body, &m);
+    check_body_motion(&body, &m, 0.10);
     assert!(check_follows_clip(&body, &clip("mixamo_freebvh.bvh"), "mixamo", &m) > 14 * 20);
     // The spine follows Mixamo's Spine, Spine1, Spine2 (the map), not CMU's same names.
     let mut bvh = Bvh::read(clip("mixamo_freebvh.bvh")).unwrap();
@@ -93,7 +93,7 @@ fn mocapbank_clip_picks_its_map_and_prepares_like_scene_motions() {
     let body = body();
     let m = read_motion(&clip("mocapbank_150.bvh"), &body.skeleton).unwrap();
     assert_eq!(m.n_frames(), 150);
-    check_body_motion(&body, &m);
+    check_body_motion(&body, &m, 0.10);
     assert!(check_follows_clip(&body, &clip("mocapbank_150.bvh"), "mocapbank", &m) > 30 * 15);
     let cfg = scene_config();
     let p = prepare(m.clone(), &cfg).unwrap();
@@ -105,7 +105,7 @@ fn mocapbank_clip_picks_its_map_and_prepares_like_scene_motions() {
     assert!(t.x.abs() < 1e-4 && t.z.abs() < 1e-4, "{t}");
     let f = first.rotations[0] * Vec3::z();
     assert!(f.x.atan2(f.z).abs() < 1e-3, "heading {}", f.x.atan2(f.z));
-    check_body_motion(&body, &p);
+    check_body_motion(&body, &p, 0.10);
 }
 
 #[test]
@@ -406,7 +406,6 @@ fn deepmimic_clips_read_through_their_joint_maps_and_resample_to_the_scene() {
         .collect();
     clips.sort();
     assert_eq!(clips.len(), 14, "{clips:?}");
-    let rest_low = body.positions.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
     for path in &clips {
         assert!(JointMap::beside(path).is_some(), "{}: no joint map beside it", path.display());
         let bvh = Bvh::read(path).unwrap();
@@ -418,17 +417,6 @@ fn deepmimic_clips_read_through_their_joint_maps_and_resample_to_the_scene() {
         assert!(clip_frames.abs_diff(expected) <= 1, "{}: {clip_frames} frames, expected {expected}", path.display());
         // Walks keep a foot down; dances, kicks, jumps and spins leave the ground or crouch.
         let walk = path.file_name().is_some_and(|n| n.to_string_lossy().contains("walk"));
-        let reach = if walk { 0.10 } else { 0.60 };
-        for f in (0..p.n_frames()).step_by(5) {
-            let tr = body.skeleton.bone_transforms(&p.pose(f).unwrap()).unwrap();
-            let x = skin(&body.positions, &body.weights, &tr);
-            assert!(x.iter().all(|q| q.iter().all(|c| c.is_finite())), "{}: frame {f}", path.display());
-            let low = x.iter().map(|q| q.y).fold(f64::INFINITY, f64::min);
-            assert!(
-                (low - rest_low).abs() < reach,
-                "{}: frame {f}: lowest {low:.3} m, rest {rest_low:.3} m",
-                path.display()
-            );
-        }
+        check_body_motion(&body, &p, if walk { 0.10 } else { 0.60 });
     }
 }
