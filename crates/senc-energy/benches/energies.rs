@@ -33,7 +33,7 @@ fn energies(c: &mut Criterion) {
         })
     });
     let mut h = frame2.hessian_pattern();
-    group.bench_function("hessian_assembly", |b| b.iter(|| frame2.hessian(&x, &mut h)));
+    group.bench_function("hessian_assembly", |b| b.iter(|| frame2.hessian(&x, &mut h).unwrap()));
     group.finish();
     let mut per = c.benchmark_group(format!("term_{}_faces", rest.n_faces()));
     let only = |f: &dyn Fn(&mut EnergyConfig)| {

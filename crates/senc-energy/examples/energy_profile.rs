@@ -82,7 +82,7 @@ fn main() {
         measure("bending_gather", n, || sc.add_flat(&hb, 1.0, &mut g));
     }
     let mut h = frame.hessian_pattern();
-    measure("hessian_assembly", n / 30 + 1, || frame.hessian(&x, &mut h));
+    measure("hessian_assembly", n / 30 + 1, || frame.hessian(&x, &mut h).unwrap());
     let mut rc = config.clone();
     rc.repulsion.weight = 1e-4;
     rc.repulsion.threshold = 0.02;

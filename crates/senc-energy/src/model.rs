@@ -498,15 +498,17 @@ impl FrameEnergy<'_> {
     }
 
     /// Fills `h` with the positive semi-definite approximation of `∂²E/∂x²` the reference
-    /// solver uses: projected StVK, Gauss–Newton bending, inertia, collision and friction
-    /// (the self-collision and repulsion terms contribute gradients only).
+    /// solver uses: projected StVK, Gauss–Newton bending, inertia, collision, friction, and
+    /// the self-collision term's curvature model (see [`SelfCollision`]; it reuses that
+    /// term's last GIA query when it was made at `x`, else makes one, whose error is
+    /// returned). Repulsion contributes its gradient only.
     ///
     /// Element Hessians are computed in parallel (stretching: exact, projected per face with a
     /// fixed-size eigen decomposition; bending: its rank-one Gauss–Newton factors), then
     /// each block row is summed by one task from the vertex's element corners in a fixed
     /// order, so the result does not depend on thread scheduling. `h` must come from
     /// [`FrameEnergy::hessian_pattern`]; blocks outside its pattern are ignored.
-    pub fn hessian(&self, x: &[Vec3], h: &mut BlockSparse) {
+    pub fn hessian(&self, x: &[Vec3], h: &mut BlockSparse) -> Result<(), EnergyError> {
         let m = self.model;
         let faces = &m.rest.faces;
         let nf = faces.len();
@@ -558,12 +560,16 @@ impl FrameEnergy<'_> {
                 h.add_diagonal(i, &m);
             }
         }
+        if let Some(sc) = &m.self_collision {
+            sc.add_curvature(x, h)?;
+        }
         self.model.constrain(h);
+        Ok(())
     }
 
     /// The same matrix as [`FrameEnergy::hessian`], assembled serially element by element
     /// (the reference the parallel assembly is tested against).
-    pub fn hessian_serial(&self, x: &[Vec3], h: &mut BlockSparse) {
+    pub fn hessian_serial(&self, x: &[Vec3], h: &mut BlockSparse) -> Result<(), EnergyError> {
         h.clear();
         for (f, hf) in self.model.rest.faces.iter().zip(self.model.stretching.hessians(x)) {
             h.add_element(f, &hf);
@@ -588,6 +594,10 @@ impl FrameEnergy<'_> {
                 h.add_diagonal(i, &m);
             }
         }
+        if let Some(sc) = &self.model.self_collision {
+            sc.add_curvature(x, h)?;
+        }
         self.model.constrain(h);
+        Ok(())
     }
 }

@@ -3,7 +3,9 @@
 //!
 //! Each iteration assembles the block-sparse, positive semi-definite Hessian approximation of
 //! [`FrameEnergy::hessian`] (exact StVK projected per element, Gauss–Newton bending, inertia
-//! `m/Δt² I`, collision and friction), solves `H p = −g` by block-Jacobi preconditioned
+//! `m/Δt² I`, collision, friction, and a curvature model of the self-collision term that
+//! keeps its force from asking for metre-long steps where compressed cloth is held by
+//! inertia alone), solves `H p = −g` by block-Jacobi preconditioned
 //! conjugate gradients (no factorisation: the inertia term makes `H` well conditioned at
 //! cloth time steps, so CG converges in tens of iterations, and no sparse-solver dependency
 //! is needed), and backtracks on the true energy with an Armijo condition. When `p` is not a
@@ -129,7 +131,7 @@ pub fn solve(
         if max_norm(&g) <= options.gradient_tolerance {
             return report(x, b, &g, it, cg_total, StopReason::GradientTolerance);
         }
-        energy.hessian(&x, &mut h);
+        energy.hessian(&x, &mut h)?;
         let rhs: Vec<Vec3> = g.iter().map(|v| -v).collect();
         cg_total += h.solve_pcg(&rhs, &mut p, options.cg_tolerance, options.cg_max_iterations);
         let mut slope = crate::hessian::dot(&p, &g);

@@ -22,7 +22,8 @@
 //! The metric `M / Δt²` keeps `s` in newtons, the plain gradient's units. The fixed point
 //! is unchanged: `s = 0` exactly where `g = 0` (`H` positive definite on the free vertices;
 //! pinned rows are the identity's and their gradient is zero).
-//! Self-collision and repulsion enter through `g` only, as in the solver.
+//! Self-collision enters through `g` and through the curvature model the solver's Hessian
+//! gives it (see `senc_energy::terms::self_collision`); repulsion through `g` only.
 
 use senc_energy::FrameEnergy;
 use senc_geom::Vec3;
@@ -30,7 +31,8 @@ use senc_geom::Vec3;
 /// Replaces the energy gradient `grad` at `x` by `grad + β (M / Δt²) H⁻¹ grad` (at most
 /// `cg_iterations` block-Jacobi PCG iterations to relative residual `cg_tolerance`).
 /// `masses` are the lumped vertex masses, `dt` the step, `beta` the Newton term's weight.
-/// Returns the PCG iterations used.
+/// Returns the PCG iterations used, or the error of the self-collision query the Hessian
+/// needs.
 pub fn newton_signal(
     fe: &FrameEnergy<'_>,
     x: &[Vec3],
@@ -40,15 +42,15 @@ pub fn newton_signal(
     grad: &mut [Vec3],
     cg_iterations: usize,
     cg_tolerance: f64,
-) -> usize {
+) -> Result<usize, senc_energy::EnergyError> {
     let mut h = fe.hessian_pattern();
-    fe.hessian(x, &mut h);
+    fe.hessian(x, &mut h)?;
     let mut d = vec![Vec3::zeros(); grad.len()];
     let used = h.solve_pcg(grad, &mut d, cg_tolerance, cg_iterations);
     for ((g, d), m) in grad.iter_mut().zip(&d).zip(masses) {
         *g += d * (beta * *m / (dt * dt));
     }
-    used
+    Ok(used)
 }
 
 #[cfg(test)]
@@ -74,14 +76,14 @@ mod tests {
         for beta in [0.0, 1.0, 30.0] {
             let mut s = vec![Vec3::zeros(); x.len()];
             fe.evaluate(&x, Some(&mut s)).unwrap();
-            newton_signal(&fe, &x, em.masses(), config.dt, beta, &mut s, 200, 1e-12);
+            newton_signal(&fe, &x, em.masses(), config.dt, beta, &mut s, 200, 1e-12).unwrap();
             for (i, (s, m)) in s.iter().zip(em.masses()).enumerate() {
                 let want = delta * ((1.0 + beta) * m / (config.dt * config.dt));
                 assert!((s - want).norm() <= 1e-6 * want.norm(), "β = {beta}, vertex {i}: {s:?}, want {want:?}");
             }
             let mut s0 = vec![Vec3::zeros(); x.len()];
             fe.evaluate(&x0, Some(&mut s0)).unwrap();
-            newton_signal(&fe, &x0, em.masses(), config.dt, beta, &mut s0, 200, 1e-12);
+            newton_signal(&fe, &x0, em.masses(), config.dt, beta, &mut s0, 200, 1e-12).unwrap();
             let worst = s0.iter().map(|v| v.norm()).fold(0.0, f64::max);
             assert!(worst <= 1e-9 * scale, "β = {beta}: the minimiser's signal is {worst:e}, not zero");
         }

@@ -314,7 +314,7 @@ impl Trainer {
                         &mut grad,
                         t.signal_cg_iterations,
                         t.signal_cg_tolerance,
-                    );
+                    )?;
                 }
             }
             let grads = senc_model::surrogate_backward(accel_t, &grad)?;
