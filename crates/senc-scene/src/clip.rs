@@ -313,10 +313,12 @@ pub fn motion_path(given: &Path, body: &Path, scene: &[String]) -> Result<PathBu
     })
 }
 
-/// Prepares a motion for a scene: resampled to `config.fps` (a clip within 0.01% of it is
-/// taken as is), turned to the rest heading when
+/// Prepares a motion for a scene: without the frames at its start that jump
+/// ([`Motion::without_leading_jumps`], e.g. a T-pose), resampled to `config.fps` (a clip
+/// within 0.01% of it is taken as is), turned to the rest heading when
 /// `config.align_heading`, and led in from the rest pose over `config.lead_in_frames`.
 pub fn prepare(m: Motion, config: &SceneConfig) -> Result<Motion, SceneError> {
+    let m = m.without_leading_jumps();
     // Files round the frame time (0.033333 s): rates within 0.01% count as equal.
     let m = if (m.fps - config.fps).abs() > 1e-4 * config.fps {
         m.resample(config.fps)?

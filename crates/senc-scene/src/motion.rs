@@ -126,6 +126,49 @@ impl Motion {
         Ok(Self::from_poses(&self.name, fps, self.bone_names.clone(), &poses))
     }
 
+    /// The largest per-frame change from frame `k` to `k + 1`: the largest bone rotation
+    /// angle (rad) and the root's displacement (m).
+    fn jump(&self, k: usize) -> (f64, f64) {
+        let nb = self.n_bones();
+        let angle = (0..nb)
+            .map(|j| from_q(&self.rotations[k * nb + j]).angle_to(&from_q(&self.rotations[(k + 1) * nb + j])))
+            .fold(0.0, f64::max);
+        let [a, b] = [k, k + 1].map(|f| self.root_translation[f].map(|c| c as f64));
+        let root = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+        (angle, root)
+    }
+
+    /// The clip without the frames at its start that jump to the next one: a frame `k` of
+    /// the first [`LEADING_JUMP_WINDOW`] whose change to frame `k + 1` is more than
+    /// [`JUMP_FACTOR`] times the clip's median change and more than [`MIN_JUMP_ANGLE`] rad
+    /// (any bone) or [`MIN_JUMP_ROOT`] m (the root) is dropped, with every frame before it.
+    /// CMU's BVH conversions start with a T-pose frame that the next frame leaves in one
+    /// step (arms swung down by over a radian); led into from the rest pose, that frame
+    /// would make the body jump through the garment at the end of the lead-in. Returns the
+    /// clip unchanged when nothing jumps, and always keeps at least two frames.
+    pub fn without_leading_jumps(&self) -> Self {
+        let n = self.n_frames();
+        if n < 4 || self.n_bones() == 0 {
+            return self.clone();
+        }
+        let jumps: Vec<(f64, f64)> = (0..n - 1).map(|k| self.jump(k)).collect();
+        let median = |f: fn(&(f64, f64)) -> f64| {
+            let mut v: Vec<f64> = jumps.iter().map(f).collect();
+            let mid = v.len() / 2;
+            *v.select_nth_unstable_by(mid, f64::total_cmp).1
+        };
+        let (angle_limit, root_limit) =
+            ((JUMP_FACTOR * median(|j| j.0)).max(MIN_JUMP_ANGLE), (JUMP_FACTOR * median(|j| j.1)).max(MIN_JUMP_ROOT));
+        let cut = (0..LEADING_JUMP_WINDOW.min(n - 2))
+            .filter(|&k| jumps[k].0 > angle_limit || jumps[k].1 > root_limit)
+            .map(|k| k + 1)
+            .max();
+        match cut {
+            Some(c) => self.slice(c, n),
+            None => self.clone(),
+        }
+    }
+
     /// Prepends `n` frames blending from the rest pose to the first frame (smoothstep), so
     /// that frame 0 is the rest pose, where garments are fitted.
     pub fn with_lead_in(&self, n: usize) -> Result<Self, SceneError> {
@@ -192,6 +235,15 @@ impl Motion {
         }
     }
 }
+
+/// How many frames at a clip's start [`Motion::without_leading_jumps`] inspects.
+pub const LEADING_JUMP_WINDOW: usize = 3;
+/// A leading frame jumps when its change is more than this many times the clip's median.
+pub const JUMP_FACTOR: f64 = 8.0;
+/// ... and some bone turns by more than this, rad, ...
+pub const MIN_JUMP_ANGLE: f64 = 0.5;
+/// ... or the root moves by more than this, m.
+pub const MIN_JUMP_ROOT: f64 = 0.15;
 
 /// Interpolates two poses: slerp per bone, linear root translation; `a = 0` gives `p`.
 pub fn blend(p: &Pose, q: &Pose, a: f64) -> Pose {

@@ -317,3 +317,52 @@ fn configs_load_and_frame_zero_is_outside_the_body() {
         assert!(inside.is_empty(), "{cfg}: {} garment vertices inside the body at frame 0", inside.len());
     }
 }
+
+/// A clip that starts with a T-pose frame, then moves smoothly: the T-pose frame is dropped,
+/// and nothing else is. A clip that moves fast everywhere, and one with no jump, stay whole.
+#[test]
+fn leading_jumps_are_dropped_and_nothing_else() {
+    let sk = chain_skeleton();
+    let names: Vec<String> = sk.bones.iter().map(|b| b.name.clone()).collect();
+    let pose = |a: f64| Pose {
+        rotations: vec![UnitQuaternion::from_axis_angle(&Vec3::z_axis(), a); 4],
+        root_translation: Vec3::new(0.01 * a, 0.0, 0.0),
+    };
+    let smooth: Vec<Pose> = (0..40).map(|k| pose(0.02 * k as f64)).collect();
+    let mut t_pose = smooth.clone();
+    t_pose[0] = pose(1.5);
+    let m = Motion::from_poses("t", 30.0, names.clone(), &t_pose).without_leading_jumps();
+    assert_eq!(m.n_frames(), 39);
+    assert!(m.pose(0).unwrap().rotations[0].angle_to(&t_pose[1].rotations[0]) < 1e-6);
+    let m = Motion::from_poses("s", 30.0, names.clone(), &smooth);
+    assert_eq!(m.without_leading_jumps(), m);
+    // 0.7 rad every frame: fast, but no frame stands out.
+    let fast: Vec<Pose> = (0..40).map(|k| pose(0.7 * k as f64)).collect();
+    let m = Motion::from_poses("f", 30.0, names.clone(), &fast);
+    assert_eq!(m.without_leading_jumps(), m);
+    // A root that teleports after two frames.
+    let mut teleport = smooth.clone();
+    for p in &mut teleport[2..] {
+        p.root_translation.x += 1.0;
+    }
+    let m = Motion::from_poses("r", 30.0, names, &teleport).without_leading_jumps();
+    assert_eq!(m.n_frames(), 38);
+}
+
+/// The committed CMU training clips start with a T-pose frame; as scenes prepare them, the
+/// body moves no more from the lead-in's last frame to the clip's next than within the
+/// lead-in.
+#[test]
+fn cmu_clips_lead_in_without_a_jump() {
+    let scene = Scene::load(root().join("configs/tshirt.toml")).unwrap();
+    let lead = scene.config.lead_in_frames;
+    for m in &scene.train {
+        let step = |f: usize| {
+            let (a, b) = (scene.body_at(m, f).unwrap(), scene.body_at(m, f + 1).unwrap());
+            a.iter().zip(&b).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max)
+        };
+        let within = (lead / 2..lead).map(step).fold(0.0, f64::max);
+        let across = step(lead);
+        assert!(across < 0.1, "{}: the body jumps {across} m at the end of the lead-in (within it {within} m)", m.name);
+    }
+}
