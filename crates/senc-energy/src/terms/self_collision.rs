@@ -99,13 +99,23 @@ impl SelfCollision {
 
     /// Energies (J), adding the gradient into `grad` when given.
     pub fn eval(&self, x: &[Vec3], grad: Option<&mut [Vec3]>) -> Result<SelfCollisionValue, EnergyError> {
+        let (value, q) = self.query(x)?;
+        if let Some(g) = grad {
+            g.iter_mut().zip(&q.gradient).for_each(|(g, o)| *g += o);
+        }
+        *self.last.lock().unwrap_or_else(|p| p.into_inner()) = Some(q);
+        Ok(value)
+    }
+
+    /// One GIA query at `x`: the energies, and the gradient and depth the curvature needs.
+    fn query(&self, x: &[Vec3]) -> Result<(SelfCollisionValue, LastQuery), EnergyError> {
         let mut guard = self.state.lock().unwrap_or_else(|p| p.into_inner());
         let (closure, ws) = &mut *guard;
         closure.update(x)?;
         self.calls.fetch_add(1, Ordering::Relaxed);
         let pen = ws.penetration(closure, &self.options)?;
         drop(guard);
-        let own: Vec<Vec3> = (0..x.len())
+        let gradient: Vec<Vec3> = (0..x.len())
             .map(|i| {
                 let mut gi = pen.gradient.get(i).map_or(Vec3::zeros(), |v| v * (6.0 * self.volume_weight));
                 if self.area_weight > 0.0 {
@@ -114,28 +124,30 @@ impl SelfCollision {
                 gi
             })
             .collect();
-        if let Some(g) = grad {
-            g.iter_mut().zip(&own).for_each(|(g, o)| *g += o);
-        }
         let depth = if pen.area > 0.0 { pen.volume.abs() / pen.area } else { 0.0 };
-        *self.last.lock().unwrap_or_else(|p| p.into_inner()) = Some(LastQuery { x: x.to_vec(), gradient: own, depth });
-        Ok(SelfCollisionValue {
+        let value = SelfCollisionValue {
             volume_energy: 6.0 * self.volume_weight * pen.volume.abs(),
             area_energy: self.area_weight * pen.area,
-        })
+        };
+        Ok((value, LastQuery { x: x.to_vec(), gradient, depth }))
     }
 
     /// Adds the curvature model `(‖f_i‖/h) n_i n_iᵀ` of the type's doc to the diagonal
     /// blocks of `h`, from the last query if it was made at `x`, else from a new one.
     pub fn add_curvature(&self, x: &[Vec3], h: &mut BlockSparse) -> Result<(), EnergyError> {
-        let fresh = matches!(&*self.last.lock().unwrap_or_else(|p| p.into_inner()), Some(q) if q.x == x);
-        if !fresh {
-            self.eval(x, None)?;
-        }
-        let guard = self.last.lock().unwrap_or_else(|p| p.into_inner());
-        let Some(q) = guard.as_ref() else { return Ok(()) };
-        let depth = q.depth.max(MIN_DEPTH);
-        for (i, f) in q.gradient.iter().enumerate() {
+        let cached = self.last.lock().unwrap_or_else(|p| p.into_inner()).as_ref().filter(|q| q.x == x).map(|q| {
+            let depth = q.depth;
+            (q.gradient.clone(), depth)
+        });
+        let (gradient, depth) = match cached {
+            Some(c) => c,
+            None => {
+                let (_, q) = self.query(x)?;
+                (q.gradient, q.depth)
+            }
+        };
+        let depth = depth.max(MIN_DEPTH);
+        for (i, f) in gradient.iter().enumerate() {
             let norm = f.norm();
             if norm > 0.0 {
                 h.add_diagonal(i as u32, &(f * f.transpose() / (norm * depth)));
