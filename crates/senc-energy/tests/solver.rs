@@ -199,5 +199,6 @@ fn self_collision_opens_a_tangle_without_tearing() {
         prev = std::mem::replace(&mut cur, next);
     }
     let last = self_energy(&cur);
+    eprintln!("self-collision energy {first} J -> {last} J");
     assert!(last < 0.5 * first, "the tangle did not open: {first} J -> {last} J");
 }

@@ -133,9 +133,8 @@ impl Motion {
         let angle = (0..nb)
             .map(|j| from_q(&self.rotations[k * nb + j]).angle_to(&from_q(&self.rotations[(k + 1) * nb + j])))
             .fold(0.0, f64::max);
-        let [a, b] = [k, k + 1].map(|f| self.root_translation[f].map(|c| c as f64));
-        let root = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
-        (angle, root)
+        let [a, b] = [k, k + 1].map(|f| Vec3::from(self.root_translation[f].map(|c| c as f64)));
+        (angle, (a - b).norm())
     }
 
     /// The clip without the frames at its start that jump to the next one: a frame `k` of

@@ -135,24 +135,20 @@ impl SelfCollision {
     /// Adds the curvature model `(‖f_i‖/h) n_i n_iᵀ` of the type's doc to the diagonal
     /// blocks of `h`, from the last query if it was made at `x`, else from a new one.
     pub fn add_curvature(&self, x: &[Vec3], h: &mut BlockSparse) -> Result<(), EnergyError> {
-        let cached = self.last.lock().unwrap_or_else(|p| p.into_inner()).as_ref().filter(|q| q.x == x).map(|q| {
-            let depth = q.depth;
-            (q.gradient.clone(), depth)
-        });
-        let (gradient, depth) = match cached {
-            Some(c) => c,
-            None => {
-                let (_, q) = self.query(x)?;
-                (q.gradient, q.depth)
+        let add = |q: &LastQuery, h: &mut BlockSparse| {
+            let depth = q.depth.max(MIN_DEPTH);
+            for (i, f) in q.gradient.iter().enumerate() {
+                let norm = f.norm();
+                if norm > 0.0 {
+                    h.add_diagonal(i as u32, &(f * f.transpose() / (norm * depth)));
+                }
             }
         };
-        let depth = depth.max(MIN_DEPTH);
-        for (i, f) in gradient.iter().enumerate() {
-            let norm = f.norm();
-            if norm > 0.0 {
-                h.add_diagonal(i as u32, &(f * f.transpose() / (norm * depth)));
-            }
+        if let Some(q) = self.last.lock().unwrap_or_else(|p| p.into_inner()).as_ref().filter(|q| q.x == x) {
+            add(q, h);
+            return Ok(());
         }
+        add(&self.query(x)?.1, h);
         Ok(())
     }
 }
