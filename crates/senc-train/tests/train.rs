@@ -211,6 +211,73 @@ fn visited_state_pool_and_newton_signal_resume_exactly() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// `[train] batch = 3`: three sequences run side by side, each with its own rollout; the
+/// run resumes exactly; a progress file written with a single running sequence reads as
+/// one lane.
+#[test]
+fn a_batch_of_sequences_trains_and_resumes_exactly() {
+    let d = tmp("batch");
+    let cfg = tiny_config(&d);
+    let text = std::fs::read_to_string(&cfg).unwrap().replace("[train]\n", "[train]\nbatch = 3\n");
+    std::fs::write(&cfg, text).unwrap();
+    let a = d.join("a");
+    let mut t = Trainer::new(&cfg, &a).unwrap();
+    let mut losses = Vec::new();
+    t.run(Some(1), |r| losses.push(r.loss)).unwrap();
+    let lanes = &t.progress.sequences;
+    assert_eq!(lanes.len(), 3, "one sequence per lane");
+    assert!(
+        lanes.windows(2).any(|w| (w[0].motion, w[0].frame, &w[0].curr) != (w[1].motion, w[1].frame, &w[1].curr)),
+        "the lanes drew the same sequence"
+    );
+    let n = t.garments()[0].rest.n_vertices();
+    assert!(lanes.iter().all(|s| s.curr.len() == n && s.frame > 0));
+    let seq = lanes[1].clone();
+    t.run(None, |r| losses.push(r.loss)).unwrap();
+    assert!(losses.iter().skip(3).all(|l| l.is_finite()), "{losses:?}");
+
+    let b = d.join("b");
+    let mut t = Trainer::new(&cfg, &b).unwrap();
+    t.run(Some(5), |_| {}).unwrap();
+    drop(t);
+    let mut t = Trainer::resume(&b).unwrap();
+    assert_eq!(t.progress.sequences.len(), 3, "the running lanes are saved");
+    t.run(None, |_| {}).unwrap();
+    for phase in ["phase1", "phase2"] {
+        assert_eq!(params(&a.join(phase)), params(&b.join(phase)), "{phase}: resumed weights differ");
+    }
+
+    // The progress file of a run with one running sequence, as a single field.
+    #[derive(serde::Serialize)]
+    struct OneLane<'a> {
+        warmup_done: u64,
+        phase: Phase,
+        iteration: u64,
+        skipped: [u64; 2],
+        rng_word_pos: u128,
+        sequence: Option<&'a senc_train::trainer::Sequence>,
+        finished: bool,
+    }
+    for (one, lanes) in [(Some(&seq), 1), (None, 0)] {
+        let bytes = rmp_serde::to_vec_named(&OneLane {
+            warmup_done: 3,
+            phase: Phase::One,
+            iteration: 2,
+            skipped: [0, 0],
+            rng_word_pos: 96,
+            sequence: one,
+            finished: false,
+        })
+        .unwrap();
+        let p: senc_train::trainer::Progress = rmp_serde::from_slice(&bytes).unwrap();
+        assert_eq!(p.sequences.len(), lanes);
+        if let Some(s) = p.sequences.first() {
+            assert_eq!((s.frame, &s.curr), (seq.frame, &seq.curr));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// A finished run whose saved config asks for more phase-2 iterations continues on
 /// `resume` from where it stopped; with the same count it stays finished.
 #[test]
