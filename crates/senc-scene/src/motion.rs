@@ -168,18 +168,47 @@ impl Motion {
         }
     }
 
-    /// Prepends `n` frames blending from the rest pose to the first frame (smoothstep), so
-    /// that frame 0 is the rest pose, where garments are fitted.
+    /// Prepends `n` frames leading in from the rest pose to the first frame, so that frame 0
+    /// is the rest pose, where garments are fitted, and the body arrives at the clip's first
+    /// frame with the clip's own velocity.
+    ///
+    /// Each bone's rotation and the root translation follow a cubic Hermite curve in the
+    /// tangent space at the first frame `P₀`: with `a = k / n` for lead-in frame `k`,
+    /// `offset(a) = (1 − s(a)) (rest ⊖ P₀) + h(a) n (P₁ ⊖ P₀)`, where `s(a) = 3a² − 2a³`
+    /// (smoothstep), `h(a) = a³ − a²` (the Hermite basis of the end tangent), `⊖` the
+    /// rotation vector `log(q₀⁻¹ q)` (a difference for the translation) and `P₁` the clip's
+    /// second frame. At `a = 0` the offset is the rest pose with zero velocity; at `a = 1` it
+    /// is zero with derivative `P₁ ⊖ P₀` per frame, the clip's first step. Without that
+    /// second term (a smoothstep to a standstill) a clip that starts in motion jumps from
+    /// rest to full speed in one frame at the lead-in's end, which flings a garment. The
+    /// velocity term moves the body at most `4/27 · n` first steps away from the smoothstep.
     pub fn with_lead_in(&self, n: usize) -> Result<Self, SceneError> {
         if n == 0 {
             return Ok(self.clone());
         }
         let first = self.pose(0)?;
+        let second = if self.n_frames() > 1 { self.pose(1)? } else { first.clone() };
         let rest = Pose::identity(self.n_bones());
+        let log = |q0: &UnitQuaternion<f64>, q: &UnitQuaternion<f64>| (q0.inverse() * q).scaled_axis();
+        let to_rest: Vec<Vec3> = first.rotations.iter().zip(&rest.rotations).map(|(q0, r)| log(q0, r)).collect();
+        let step: Vec<Vec3> = first.rotations.iter().zip(&second.rotations).map(|(q0, q1)| log(q0, q1)).collect();
+        let (t0, t1) = (first.root_translation, second.root_translation);
         let mut poses: Vec<Pose> = (0..n)
             .map(|k| {
+                if k == 0 {
+                    return rest.clone(); // exactly, not through log and exp
+                }
                 let a = k as f64 / n as f64;
-                blend(&rest, &first, a * a * (3.0 - 2.0 * a))
+                let back = 1.0 - a * a * (3.0 - 2.0 * a);
+                let ahead = (a * a * a - a * a) * n as f64;
+                let rotations = first
+                    .rotations
+                    .iter()
+                    .zip(to_rest.iter().zip(&step))
+                    .map(|(q0, (r, v))| q0 * UnitQuaternion::from_scaled_axis(r * back + v * ahead))
+                    .collect();
+                let root_translation = t0 + (rest.root_translation - t0) * back + (t1 - t0) * ahead;
+                Pose { rotations, root_translation }
             })
             .collect();
         for f in 0..self.n_frames() {

@@ -420,5 +420,18 @@ fn deepmimic_clips_read_through_their_joint_maps_and_resample_to_the_scene() {
         // Walks keep a foot down; dances, kicks, jumps and spins leave the ground or crouch.
         let walk = path.file_name().is_some_and(|n| n.to_string_lossy().contains("walk"));
         check_body_motion(&body, &p, if walk { 0.10 } else { 0.60 });
+        // The lead-in arrives moving as the clip moves: the root's last lead-in step is
+        // close to the clip's first step (a lead-in to a standstill would end with a step of
+        // almost zero, then jump to the clip's speed).
+        let lead = cfg.lead_in_frames;
+        let root = |f: usize| p.pose(f).unwrap().root_translation;
+        let (step_in, step_clip) = (root(lead) - root(lead - 1), root(lead + 1) - root(lead));
+        let jump = (step_in - step_clip).norm();
+        assert!(
+            jump <= 0.35 * step_clip.norm() + 2e-3,
+            "{}: the root's speed jumps by {jump} m/frame at the lead-in's end (the clip's step {} m)",
+            path.display(),
+            step_clip.norm()
+        );
     }
 }

@@ -204,6 +204,60 @@ fn lead_in_starts_at_rest() {
     assert!(m.pose(10).unwrap().rotations[0].angle_to(&q) < 1e-6);
 }
 
+/// A clip that starts in motion: the lead-in leaves the rest pose at rest and arrives at
+/// the clip's first frame moving as the clip moves (a smoothstep to the first frame would
+/// arrive at a standstill and jump to full speed in one frame). A one-frame clip leads in
+/// as a smoothstep.
+#[test]
+fn lead_in_arrives_with_the_clips_velocity() {
+    let sk = chain_skeleton();
+    let names: Vec<String> = sk.bones.iter().map(|b| b.name.clone()).collect();
+    let (w, u) = (Vec3::new(0.04, -0.03, 0.05), Vec3::new(0.06, 0.0, -0.04)); // per frame
+    let q0 = UnitQuaternion::from_axis_angle(&Vec3::x_axis(), 0.8);
+    let poses: Vec<Pose> = (0..6)
+        .map(|f| {
+            let q = q0 * UnitQuaternion::from_scaled_axis(w * f as f64);
+            Pose { rotations: vec![q; 4], root_translation: Vec3::new(0.3, 0.9, -0.2) + u * f as f64 }
+        })
+        .collect();
+    let clip = Motion::from_poses("m", 30.0, names.clone(), &poses);
+    let n = 15;
+    let m = clip.with_lead_in(n).unwrap();
+    assert_eq!(m.n_frames(), n + 6);
+    assert_eq!(m.pose(0).unwrap(), Pose::identity(4));
+    // Motions store f32.
+    assert!(m.pose(n).unwrap().rotations[0].angle_to(&poses[0].rotations[0]) < 1e-6);
+    // Velocities per frame: rotation vector of bone 0 and root translation.
+    let vel = |a: &Pose, b: &Pose| {
+        ((a.rotations[0].inverse() * b.rotations[0]).scaled_axis(), b.root_translation - a.root_translation)
+    };
+    let p = |f: usize| m.pose(f).unwrap();
+    let (w_start, u_start) = vel(&p(0), &p(1));
+    let (w_last, u_last) = vel(&p(n - 1), &p(n));
+    let (w_clip, u_clip) = vel(&p(n), &p(n + 1));
+    assert!((w_clip - w).norm() < 1e-6 && (u_clip - u).norm() < 1e-6);
+    // The smoothstep to a standstill, for comparison.
+    let smooth = |k: usize| {
+        let a = k as f64 / n as f64;
+        senc_scene::motion::blend(&Pose::identity(4), &poses[0], a * a * (3.0 - 2.0 * a))
+    };
+    let (w_smooth, u_smooth) = vel(&smooth(n - 1), &poses[0]);
+    let (dw, du) = ((w_last - w).norm(), (u_last - u).norm());
+    let (dw_smooth, du_smooth) = ((w_smooth - w).norm(), (u_smooth - u).norm());
+    assert!(dw < 0.3 * dw_smooth && du < 0.3 * du_smooth, "velocity jump {dw}, {du} against {dw_smooth}, {du_smooth}");
+    assert!(du < 0.25 * u.norm(), "root velocity jump {du} m/frame against the clip's {}", u.norm());
+    // It starts at rest: the first step is as small as the smoothstep's.
+    let (w_s0, u_s0) = vel(&smooth(0), &smooth(1));
+    assert!(w_start.norm() < 2.0 * w_s0.norm() + 1e-3 && u_start.norm() < 2.0 * u_s0.norm() + 1e-3);
+
+    let one = Motion::from_poses("one", 30.0, names, &poses[..1]).with_lead_in(n).unwrap();
+    for k in 0..=n {
+        let (a, b) = (one.pose(k).unwrap(), smooth(k));
+        assert!(a.rotations[0].angle_to(&b.rotations[0]) < 1e-6, "frame {k}");
+        assert!((a.root_translation - b.root_translation).norm() < 1e-6, "frame {k}");
+    }
+}
+
 #[test]
 fn heading_alignment_faces_the_rest_pose_and_keeps_relative_motion() {
     let sk = chain_skeleton();
