@@ -1,7 +1,6 @@
 //! `cargo xtask bench model [--config C.toml] [--quick] [--reps N] [--export DIR] [--torch]`:
 //! times the senc-model network on the real t-shirt graph. `cargo xtask bench train
-//! [--config C.toml] [--batch 1,2,4] [--iterations N] [--phase 1|2] [--rounds R]` times
-//! training iterations per `[train] batch`.
+//! [--config C.toml] [--iterations N] [--phase 1|2] [--rounds R]` times training iterations.
 //!
 //! The graph is the one training builds: the config's garment (default the t-shirt) skinned
 //! onto the body at frames `f − 1` and `f` of its first training motion, the proxy body at
@@ -42,8 +41,7 @@ pub struct Args {
 pub enum Target {
     /// The network: graph building, inference and forward + backward (burn, optionally PyTorch).
     Model(ModelArgs),
-    /// Training throughput: iterations and sequences per second and cores busy, per
-    /// `[train] batch`.
+    /// Training throughput: iterations per second, cores busy and CPU time per iteration.
     Train(TrainArgs),
 }
 
@@ -53,17 +51,13 @@ pub struct TrainArgs {
     /// Config to train (its warm-up runs untimed first).
     #[arg(long, default_value = "configs/skirt.toml")]
     pub config: PathBuf,
-    /// Batch sizes to time (`[train] batch`), one run each, in this order.
-    #[arg(long, value_delimiter = ',', default_value = "1,2,4")]
-    pub batch: Vec<usize>,
-    /// Timed training iterations per batch size.
+    /// Timed training iterations per round.
     #[arg(long, default_value_t = 60)]
     pub iterations: u64,
     /// Phase to time (1 or 2: phase 2 adds self-collision, area and repulsion).
     #[arg(long, default_value_t = 2)]
     pub phase: u8,
-    /// Rounds over the batch sizes (alternating, so that a change in machine load is
-    /// spread over all of them); the table gives each size's median.
+    /// Rounds, each a fresh run; the table gives their median.
     #[arg(long, default_value_t = 1)]
     pub rounds: usize,
 }
@@ -133,12 +127,12 @@ fn cpu_seconds() -> f64 {
     }
 }
 
-/// Training throughput per batch size: a fresh trainer in a temporary directory, its
-/// warm-up untimed, then `iterations` training iterations of the chosen phase at the
-/// steady rollout length (`[train] rollout_max`), timed by wall clock and process CPU time.
+/// Training throughput: a fresh trainer per round in a temporary directory, its warm-up
+/// untimed, then `iterations` training iterations of the chosen phase at the steady rollout
+/// length (`[train] rollout_max`), timed by wall clock and process CPU time.
 fn train(a: &TrainArgs) -> Result<()> {
-    if a.batch.is_empty() || a.iterations == 0 || a.rounds == 0 {
-        bail!("give at least one batch size, one iteration and one round");
+    if a.iterations == 0 || a.rounds == 0 {
+        bail!("give at least one iteration and one round");
     }
     let phase = match a.phase {
         1 => senc_train::Phase::One,
@@ -146,60 +140,50 @@ fn train(a: &TrainArgs) -> Result<()> {
         p => bail!("--phase {p}: give 1 or 2"),
     };
     let tmp = std::env::temp_dir().join(format!("senc-bench-train-{}", std::process::id()));
-    let mut rows: Vec<Vec<(f64, f64)>> = vec![Vec::new(); a.batch.len()];
-    for _ in 0..a.rounds {
-        for (i, &b) in a.batch.iter().enumerate() {
-            let doc = RunConfig::resolve(&a.config, None, &[format!("train.batch={b}")])?;
-            let out = tmp.join(format!("batch{b}"));
-            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-            let resolved = doc.moved_to(&out.join(senc_train::trainer::CONFIG_FILE), senc_train::config::PATH_KEYS);
-            std::fs::write(&resolved.path, resolved.to_toml())?;
-            let mut trainer = senc_train::Trainer::new(&resolved.path, &out)?;
-            trainer.config.train.checkpoint_every = u64::MAX;
-            while trainer.progress.warmup_done < trainer.config.train.warmup_iterations {
-                trainer.step()?;
-            }
-            let t = &trainer.config.train;
-            trainer.progress.phase = phase;
-            trainer.progress.iteration = t.rollout_growth.saturating_mul(t.rollout_max as u64);
-            match phase {
-                senc_train::Phase::One => trainer.config.train.phase1_iterations = u64::MAX,
-                _ => trainer.config.train.phase2_iterations = u64::MAX,
-            }
-            let (w0, c0) = (std::time::Instant::now(), cpu_seconds());
-            trainer.run(Some(a.iterations), |_| {})?;
-            let (wall, cpu) = (w0.elapsed().as_secs_f64(), cpu_seconds() - c0);
-            eprintln!("batch {b}: {:.1} s wall, {cpu:.1} s CPU", wall);
-            rows[i].push((wall, cpu));
-            let _ = std::fs::remove_dir_all(&out);
+    let mut rounds = Vec::with_capacity(a.rounds);
+    for round in 0..a.rounds {
+        let doc = RunConfig::resolve(&a.config, None, &[])?;
+        let out = tmp.join(format!("round{round}"));
+        std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+        let resolved = doc.moved_to(&out.join(senc_train::trainer::CONFIG_FILE), senc_train::config::PATH_KEYS);
+        std::fs::write(&resolved.path, resolved.to_toml())?;
+        let mut trainer = senc_train::Trainer::new(&resolved.path, &out)?;
+        trainer.config.train.checkpoint_every = u64::MAX;
+        while trainer.progress.warmup_done < trainer.config.train.warmup_iterations {
+            trainer.step()?;
         }
+        let t = &trainer.config.train;
+        trainer.progress.phase = phase;
+        trainer.progress.iteration = t.rollout_growth.saturating_mul(t.rollout_max as u64);
+        match phase {
+            senc_train::Phase::One => trainer.config.train.phase1_iterations = u64::MAX,
+            _ => trainer.config.train.phase2_iterations = u64::MAX,
+        }
+        let (w0, c0) = (std::time::Instant::now(), cpu_seconds());
+        trainer.run(Some(a.iterations), |_| {})?;
+        let (wall, cpu) = (w0.elapsed().as_secs_f64(), cpu_seconds() - c0);
+        eprintln!("round {}: {wall:.1} s wall, {cpu:.1} s CPU", round + 1);
+        rounds.push((wall, cpu));
+        let _ = std::fs::remove_dir_all(&out);
     }
     let _ = std::fs::remove_dir_all(&tmp);
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
+    let wall = median(rounds.iter().map(|x| x.0).collect());
+    let cpu = median(rounds.iter().map(|x| x.1).collect());
     println!(
-        "Training throughput, {} phase {}, {} iterations per run, {} round(s), load {}\n",
+        "Training throughput, {} phase {}, {} iterations per round, {} round(s), load {}\n",
         a.config.display(),
         a.phase,
         a.iterations,
         a.rounds,
         load()
     );
-    println!("| batch | iterations/s | sequence steps/s | cores busy | CPU ms per sequence step |");
-    println!("|---:|---:|---:|---:|---:|");
-    for (&b, r) in a.batch.iter().zip(rows) {
-        let wall = median(r.iter().map(|x| x.0).collect());
-        let cpu = median(r.iter().map(|x| x.1).collect());
-        let its = a.iterations as f64 / wall;
-        println!(
-            "| {b} | {its:.2} | {:.2} | {:.2} | {:.0} |",
-            its * b as f64,
-            cpu / wall,
-            1e3 * cpu / (a.iterations as f64 * b as f64)
-        );
-    }
+    println!("| iterations/s | cores busy | CPU ms per iteration |");
+    println!("|---:|---:|---:|");
+    println!("| {:.2} | {:.2} | {:.0} |", a.iterations as f64 / wall, cpu / wall, 1e3 * cpu / a.iterations as f64);
     Ok(())
 }
 

@@ -16,22 +16,6 @@ pub enum ModelError {
         /// The vertex count it must match.
         expected: usize,
     },
-    /// Graphs batched into one ([`crate::GraphInputs::union`]) were built with different
-    /// graph configs.
-    #[error(
-        "graphs of one batch must share a graph config: {got_sets} edge sets and {got_width} node \
-         features against {sets} and {width}; build every graph with the model's GraphConfig"
-    )]
-    BatchMismatch {
-        /// Edge sets of the odd graph.
-        got_sets: usize,
-        /// Node feature width of the odd graph.
-        got_width: usize,
-        /// Edge sets of the first graph.
-        sets: usize,
-        /// Node feature width of the first graph.
-        width: usize,
-    },
     /// A position, material parameter or acceleration is NaN or infinite.
     #[error("{what} is not finite (entry {index}); the simulation diverged or the input is corrupt")]
     NotFinite {

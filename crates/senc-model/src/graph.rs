@@ -328,61 +328,6 @@ impl GraphInputs {
         Ok((Self { n_cloth, n_body, nodes, edges }, timings))
     }
 
-    /// The disjoint union of several graphs, for one forward pass over a batch of frames.
-    ///
-    /// The cloth nodes of every graph come first, in order, then their body nodes, so that
-    /// the output rows `[n_cloth, 3]` are the graphs' cloth rows one after another. Each
-    /// edge set is the graphs' sets concatenated with their node indices moved; no edge
-    /// joins two graphs, so every node's messages, and with them the output, are those of
-    /// its own graph alone. An empty slice gives an empty graph.
-    ///
-    /// # Errors
-    /// [`ModelError::BatchMismatch`] when the graphs have different node feature widths or
-    /// numbers of edge sets (graphs built with different [`GraphConfig`]s).
-    pub fn union(graphs: &[GraphInputs]) -> Result<Self, ModelError> {
-        let Some(first) = graphs.first() else {
-            return Ok(Self { n_cloth: 0, n_body: 0, nodes: Vec::new(), edges: Vec::new() });
-        };
-        let width_of = |g: &GraphInputs| g.nodes.len().checked_div(g.n_nodes()).unwrap_or(0);
-        let width = graphs.iter().map(width_of).max().unwrap_or(0);
-        for g in graphs {
-            if g.edges.len() != first.edges.len() || g.nodes.len() != g.n_nodes() * width {
-                return Err(ModelError::BatchMismatch {
-                    got_sets: g.edges.len(),
-                    got_width: width_of(g),
-                    sets: first.edges.len(),
-                    width,
-                });
-            }
-        }
-        let n_cloth: usize = graphs.iter().map(|g| g.n_cloth).sum();
-        let n_body: usize = graphs.iter().map(|g| g.n_body).sum();
-        let mut nodes = Vec::with_capacity((n_cloth + n_body) * width);
-        for g in graphs {
-            nodes.extend_from_slice(&g.nodes[..g.n_cloth * width]);
-        }
-        for g in graphs {
-            nodes.extend_from_slice(&g.nodes[g.n_cloth * width..]);
-        }
-        let mut edges = vec![EdgeSet::default(); first.edges.len()];
-        let (mut cloth_at, mut body_at) = (0usize, n_cloth);
-        for g in graphs {
-            // Cloth node i moves to cloth_at + i; body node n_cloth + j to body_at + j.
-            let moved = |v: u32| -> u32 {
-                let v = v as usize;
-                (if v < g.n_cloth { cloth_at + v } else { body_at + v - g.n_cloth }) as u32
-            };
-            for (out, set) in edges.iter_mut().zip(&g.edges) {
-                out.senders.extend(set.senders.iter().map(|&s| moved(s)));
-                out.receivers.extend(set.receivers.iter().map(|&r| moved(r)));
-                out.features.extend_from_slice(&set.features);
-            }
-            cloth_at += g.n_cloth;
-            body_at += g.n_body;
-        }
-        Ok(Self { n_cloth, n_body, nodes, edges })
-    }
-
     /// Total node count.
     pub fn n_nodes(&self) -> usize {
         self.n_cloth + self.n_body

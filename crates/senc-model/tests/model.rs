@@ -173,44 +173,6 @@ fn permutation_equivariance() {
     assert!(diff <= 1e-5 * max_abs(&base), "permuted output differs by {diff}");
 }
 
-/// A batch is one graph made of several: each garment's output rows are what its own graph
-/// gives alone (with coarse levels, a body-less scene among them, different sizes).
-#[test]
-fn a_disjoint_union_of_graphs_gives_each_graphs_own_output() {
-    let device = Device::flex();
-    let config = small_config().with_coarse_levels(2);
-    let mut model = Model::new(config, GraphConfig::default(), 8, &device);
-    let scenes = [
-        SyntheticScene::new(10, 0.01, 200, 11),
-        SyntheticScene::new(7, 0.012, 0, 3),
-        SyntheticScene::new(9, 0.01, 120, 5),
-    ];
-    let graphs: Vec<GraphInputs> = scenes.iter().map(|s| model.build_graph(&s.frame()).unwrap()).collect();
-    for g in &graphs {
-        model.normalizers.update_inputs(g);
-    }
-    model.normalizers.output.update(&[0.001, -0.01, 0.0, -0.002, -0.012, 0.001]);
-    let alone: Vec<Vec3> = graphs.iter().flat_map(|g| tensor_to_vec3(model.forward(g)).unwrap()).collect();
-    let union = GraphInputs::union(&graphs).unwrap();
-    assert_eq!(union.n_cloth, 100 + 49 + 81);
-    assert_eq!(union.n_body, graphs[0].n_body + graphs[2].n_body);
-    assert_eq!(union.coarse_levels(), 2);
-    for t in 0..union.edges.len() {
-        assert_eq!(union.edges[t].len(), graphs.iter().map(|g| g.edges[t].len()).sum::<usize>());
-    }
-    let batched = tensor_to_vec3(model.forward(&union)).unwrap();
-    assert_eq!(batched.len(), alone.len());
-    assert!(max_abs(&alone) > 1e-4, "degenerate output");
-    let diff = max_abs_diff(&batched, &alone);
-    assert!(diff <= 1e-5 * max_abs(&alone), "batched output differs by {diff}");
-
-    // A graph built with another config (no coarse levels) cannot join the batch.
-    let flat = GraphInputs::build(&scenes[0].frame(), &GraphConfig::default()).unwrap();
-    let err = GraphInputs::union(&[graphs[0].clone(), flat]).unwrap_err();
-    assert!(matches!(err, ModelError::BatchMismatch { .. }), "{err}");
-    assert_eq!(GraphInputs::union(&[]).unwrap().n_nodes(), 0);
-}
-
 /// Translating cloth and body together leaves the accelerations unchanged.
 #[test]
 fn translation_invariance() {

@@ -79,9 +79,6 @@ impl std::fmt::Display for Phase {
     }
 }
 
-/// The largest `[train] batch`.
-pub const MAX_BATCH: usize = 64;
-
 /// The `[train]` table: schedule, optimiser, randomisation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -102,10 +99,6 @@ pub struct TrainConfig {
     pub lr_halving: u64,
     /// Global gradient-norm clip (HOOD: 1).
     pub grad_clip: f64,
-    /// Sequences per optimiser step. Each keeps its own rollout; one forward pass runs on
-    /// the disjoint union of their graphs, their energies are evaluated in parallel, and
-    /// the step follows the mean of their energy gradients. Default 1 (HOOD: 1).
-    pub batch: usize,
     /// Longest rollout (HOOD: 5).
     pub rollout_max: usize,
     /// Rollout length `min(1 + ⌊k / rollout_growth⌋, rollout_max)` (HOOD: 5000).
@@ -188,7 +181,6 @@ impl Default for TrainConfig {
             learning_rate: 5e-4,
             lr_halving: 50_000,
             grad_clip: 1.0,
-            batch: 1,
             rollout_max: 5,
             rollout_growth: 500,
             noise_std: 3e-3,
@@ -534,9 +526,6 @@ impl RunConfig {
         }
         if t.checkpoint_every == 0 {
             return bad("[train] checkpoint_every must be >= 1".into());
-        }
-        if !(1..=MAX_BATCH).contains(&t.batch) {
-            return bad(format!("[train] batch = {} must be in 1..={MAX_BATCH} sequences per step", t.batch));
         }
         if !(t.newton_weight.is_finite() && t.newton_weight >= 0.0) {
             return bad(format!("[train] newton_weight = {} must be finite and >= 0", t.newton_weight));

@@ -33,11 +33,8 @@ pub struct Progress {
     pub skipped: [u64; 2],
     /// The RNG's position (ChaCha word position).
     pub rng_word_pos: u128,
-    /// The running sequences, one per lane of `[train] batch` (a lane whose sequence has no
-    /// steps left starts a new one). Progress files that hold a single `sequence` read as
-    /// one lane.
-    #[serde(default, alias = "sequence", deserialize_with = "one_or_many")]
-    pub sequences: Vec<Sequence>,
+    /// The running sequence.
+    pub sequence: Option<Sequence>,
     /// Whether both phases are done.
     pub finished: bool,
     /// States the network reached when rolled out alone (`[train] pool_share`), as
@@ -47,21 +44,6 @@ pub struct Progress {
     /// Where the next pooled state goes once the pool is full.
     #[serde(default)]
     pub pool_next: usize,
-}
-
-/// Reads the running sequences as a list, or as the single optional sequence that
-/// progress files of one lane hold.
-fn one_or_many<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<Sequence>, D::Error> {
-    #[derive(Deserialize)]
-    #[serde(untagged)]
-    enum Lanes {
-        Many(Vec<Sequence>),
-        One(Option<Sequence>),
-    }
-    Ok(match Lanes::deserialize(d)? {
-        Lanes::Many(v) => v,
-        Lanes::One(s) => s.into_iter().collect(),
-    })
 }
 
 /// Writes a directory atomically: filled under a temporary name, then renamed into place.

@@ -1,8 +1,7 @@
 //! The two-phase autoregressive trainer (HOOD's schedule, SENC's phases).
 //!
-//! One iteration is one optimiser step on one rollout step of each of `[train] batch`
-//! sequences (lanes; 1 by default):
-//! 1. A lane whose sequence is done starts a new one: a random garment, training motion and window,
+//! One iteration is one optimiser step on one rollout step:
+//! 1. If no sequence is running, start one: a random garment, training motion and window,
 //!    a random material (HOOD's ranges) and external acceleration (|a| uniform in
 //!    `[0, external_max]` m/s², uniform direction), σ noise on the initial positions; with
 //!    probability `first_step_probability` the sequence starts at frame 0 from the skinned
@@ -10,22 +9,18 @@
 //!    1/fps after it), else mid-motion from the skinned state relaxed out of the body
 //!    (`Garment::relax_start`). It runs for `min(1 + ⌊k / rollout_growth⌋, rollout_max)`
 //!    steps.
-//! 2. The network predicts `x[t+1]` of every lane in one forward pass over the disjoint
-//!    union of their graphs (pinned vertices are then set to the skinned garment);
-//!    senc-energy evaluates each lane's `E(x[t+1])` and `g = ∂E/∂x[t+1]` in f64, the lanes
-//!    in parallel; the surrogate loss `Σ x ⊙ g / B` (the mean over the `B` lanes that gave
-//!    a finite energy) is backpropagated; gradients are clipped by their global norm; Adam
-//!    steps with `lr · (0.5^⌊k/lr_halving⌋ + 0.01)`.
-//! 3. Each lane's `x[t+1]` (f64, detached) becomes its next state.
+//! 2. The network predicts `x[t+1]` (pinned vertices are then set to the skinned garment);
+//!    senc-energy evaluates `E(x[t+1])` and `g = ∂E/∂x[t+1]`
+//!    in f64; the surrogate loss `Σ x ⊙ g` is backpropagated; gradients are clipped by their
+//!    global norm; Adam steps with `lr · (0.5^⌊k/lr_halving⌋ + 0.01)`.
+//! 3. `x[t+1]` (f64, detached) becomes the next state.
 //!
 //! Warm-up iterations before phase 1 only feed the normalisers (inputs from graphs of
 //! skinned states, outputs from the skinned garment's acceleration beyond gravity,
 //! `(x̂[t+1] − 2x̂[t] + x̂[t−1]) / Δt² − g`). Phase 1 trains without the self-collision, area
 //! and repulsion energies; phase 2 starts from phase 1's weights (saved in `OUT/phase1`) with a fresh Adam
-//! state and all energies of `[energy]`. A lane whose energy or energy gradient is not
-//! finite gives no gradient and its sequence ends (counted as a skipped step); where no lane
-//! gives one, or the parameter gradient is not finite, no optimiser step is taken and every
-//! lane's sequence ends.
+//! state and all energies of `[energy]`. A step whose energy, energy gradient or parameter
+//! gradient is not finite is skipped (no optimiser step), counted, and ends its sequence.
 //!
 //! Checkpoints (`OUT/latest`, then `OUT/phase1`, `OUT/phase2` at the end of each phase) are
 //! directories written under a temporary name and renamed into place; they hold the model
@@ -41,13 +36,11 @@ use std::path::{Path, PathBuf};
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
 use senc_energy::EnergyModel;
 use senc_geom::Vec3;
 use senc_model::burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer, OptimizerRecord};
 use senc_model::burn::tensor::Device;
-use senc_model::convert::f32_tensor;
-use senc_model::{tensor_to_vec3, GraphInputs, Model};
+use senc_model::{GraphInputs, Model};
 
 pub use checkpoint::{Progress, CONFIG_FILE, LATEST, OPTIM_FILE, PROGRESS_FILE};
 pub use log::{StepReport, CSV_FILE};
@@ -57,24 +50,6 @@ use crate::config::{Phase, RunConfig};
 use crate::error::TrainError;
 use crate::garment::Garment;
 use sampling::{advance, finite, frame_state};
-
-/// One lane of a batch: the id of its running sequence and that sequence's energy model,
-/// keyed by the id and whether the step is the long first step.
-#[derive(Default)]
-struct Lane {
-    id: u64,
-    energy: Option<(u64, EnergyModel)>,
-}
-
-/// One lane's inputs to a training step.
-struct LaneInput {
-    body_t: Vec<Vec3>,
-    body_n: Vec<Vec3>,
-    dt: f64,
-    graph: GraphInputs,
-    /// Free flight under gravity and the external force (see [`Model::free_flight`]).
-    free: Vec<Vec3>,
-}
 
 /// The trainer.
 pub struct Trainer {
@@ -89,8 +64,7 @@ pub struct Trainer {
     /// Progress.
     pub progress: Progress,
     out: PathBuf,
-    /// Per lane of `[train] batch`: its sequence's id and energy model.
-    lanes: Vec<Lane>,
+    energy_cache: Option<(u64, EnergyModel)>,
     /// Per garment: the phase-1 energy with the scene's material that relaxes starts.
     relax_energy: Vec<Option<EnergyModel>>,
     sequence_id: u64,
@@ -120,7 +94,7 @@ impl Trainer {
             rng,
             progress: Progress { phase: Phase::One, ..Default::default() },
             out: out.to_path_buf(),
-            lanes: Vec::new(),
+            energy_cache: None,
             relax_energy: Vec::new(),
             sequence_id: 0,
         })
@@ -183,7 +157,7 @@ impl Trainer {
             rng,
             progress,
             out: out.to_path_buf(),
-            lanes: Vec::new(),
+            energy_cache: None,
             relax_energy: Vec::new(),
             sequence_id: u64::MAX / 2,
         })
@@ -276,135 +250,40 @@ impl Trainer {
         let k = self.progress.iteration;
         let len = self.config.train.rollout_len(k);
         let t = &self.config.train;
-        let batch = t.batch;
         if t.pool_share > 0.0 && k % t.pool_every == 0 {
             self.fill_pool()?;
         }
-        // A lane whose sequence is done starts a new one (lanes in order, so that the same
-        // seed draws the same sequences).
-        self.progress.sequences.truncate(batch);
-        self.lanes.resize_with(batch, Lane::default);
-        for l in 0..batch {
-            if self.progress.sequences.get(l).is_none_or(|s| s.steps_left == 0) {
-                let s = self.start_sequence(len, true)?;
-                if l < self.progress.sequences.len() {
-                    self.progress.sequences[l] = s;
-                } else {
-                    self.progress.sequences.push(s);
-                }
-                self.lanes[l] = Lane { id: self.sequence_id, energy: None };
-            }
+        if self.progress.sequence.as_ref().is_none_or(|s| s.steps_left == 0) {
+            let s = self.start_sequence(len, true)?;
+            self.progress.sequence = Some(s);
+            self.energy_cache = None;
         }
-        // Each lane's energy model (rebuilt for a new sequence and for the long first step).
-        for (lane, seq) in self.lanes.iter_mut().zip(&self.progress.sequences) {
-            let key = lane.id.wrapping_mul(2) + u64::from(seq.first_step);
-            if lane.energy.as_ref().is_none_or(|(k, _)| *k != key) {
-                let g = &self.garments[seq.garment];
-                let dt = if seq.first_step { g.scene.config.first_step_dt } else { g.scene.dt() };
-                let mut ec = self.config.energy_for(phase, seq.material, seq.external);
-                // HOOD's collision ramp, per sequence (counted over both phases).
-                let global = if phase == Phase::One { k } else { self.config.train.phase1_iterations + k };
-                ec.collision.weight = self.config.train.collision_weight(global, ec.collision.weight);
-                lane.energy = Some((key, g.energy_model(ec, dt)?));
-            }
+        let seq = self.progress.sequence.clone().expect("sequence started above");
+        let g = self.garments[seq.garment].clone();
+        let motion = &g.scene.train[seq.motion];
+        let body_t = if seq.first_step { g.body_at(motion, 0)? } else { g.body_at(motion, seq.frame)? };
+        let body_n = g.body_at(motion, seq.frame + 1)?;
+        let accel = self.gravity(&g) + Vec3::from(seq.external);
+        // The long first step uses its own Δt (in the forcing and in the energy).
+        let dt = if seq.first_step { g.scene.config.first_step_dt } else { g.scene.dt() };
+        let frame = frame_state(&g, &seq, &body_t, &body_n, accel, dt);
+        let graph = GraphInputs::build(&frame, &self.model.graph)?;
+        let (accel_t, mut next) = self.model.predict(&graph, &frame)?;
+        // Pinned vertices follow the skinned garment (their energy gradient is zero, so the
+        // network's output there gets no training signal).
+        g.pin_at(&mut next, motion, seq.frame + 1)?;
+        let key = self.sequence_id.wrapping_mul(2) + u64::from(seq.first_step);
+        if self.energy_cache.as_ref().is_none_or(|(k, _)| *k != key) {
+            let mut ec = self.config.energy_for(phase, seq.material, seq.external);
+            // HOOD's collision ramp, per sequence (counted over both phases).
+            let global = if phase == Phase::One { k } else { self.config.train.phase1_iterations + k };
+            ec.collision.weight = self.config.train.collision_weight(global, ec.collision.weight);
+            self.energy_cache = Some((key, g.energy_model(ec, dt)?));
         }
-
-        // Each lane's step inputs and graph, in parallel.
-        let garments = &self.garments;
-        let graph_config = &self.model.graph;
-        let inputs: Vec<LaneInput> = self
-            .progress
-            .sequences
-            .par_iter()
-            .map(|seq| {
-                let g = &garments[seq.garment];
-                let motion = &g.scene.train[seq.motion];
-                let body_t = if seq.first_step { g.body_at(motion, 0)? } else { g.body_at(motion, seq.frame)? };
-                let body_n = g.body_at(motion, seq.frame + 1)?;
-                let accel = Vec3::from(g.scene.config.external_force.gravity) + Vec3::from(seq.external);
-                // The long first step uses its own Δt (in the forcing and in the energy).
-                let dt = if seq.first_step { g.scene.config.first_step_dt } else { g.scene.dt() };
-                let frame = frame_state(g, seq, &body_t, &body_n, accel, dt);
-                let graph = GraphInputs::build(&frame, graph_config)?;
-                let free = Model::free_flight(&frame);
-                Ok(LaneInput { body_t, body_n, dt, graph, free })
-            })
-            .collect::<Result<_, TrainError>>()?;
-
-        // One forward pass over the disjoint union of the lanes' graphs: the tracked response
-        // displacements `r = Δt² a` of every lane's cloth, one lane after another.
-        let response = if inputs.len() == 1 {
-            self.model.forward(&inputs[0].graph) * (inputs[0].dt * inputs[0].dt) as f32
-        } else {
-            let graphs: Vec<GraphInputs> = inputs.iter().map(|i| i.graph.clone()).collect();
-            let union = GraphInputs::union(&graphs)?;
-            let a = self.model.forward(&union);
-            if inputs.iter().all(|i| i.dt == inputs[0].dt) {
-                a * (inputs[0].dt * inputs[0].dt) as f32
-            } else {
-                let rows: Vec<f64> = inputs.iter().flat_map(|i| vec![i.dt * i.dt; i.graph.n_cloth]).collect();
-                a * f32_tensor(&rows, [rows.len(), 1], &self.model.device)
-            }
-        };
-        let r = tensor_to_vec3(response.clone().detach())?;
-        let mut rows = r.into_iter();
-        let mut nexts = Vec::with_capacity(batch);
-        for (input, seq) in inputs.iter().zip(&self.progress.sequences) {
-            let mut next: Vec<Vec3> = input.free.iter().zip(rows.by_ref()).map(|(b, r)| b + r).collect();
-            if next.len() != input.free.len() {
-                return Err(TrainError::Invalid(format!(
-                    "the network gave {} rows for a garment of {} vertices",
-                    next.len(),
-                    input.free.len()
-                )));
-            }
-            // Pinned vertices follow the skinned garment (their energy gradient is zero, so
-            // the network's output there gets no training signal).
-            let g = &garments[seq.garment];
-            g.pin_at(&mut next, &g.scene.train[seq.motion], seq.frame + 1)?;
-            nexts.push(next);
-        }
-
-        // Each lane's energy and gradient at its prediction, in parallel. A lane whose
-        // energy, gradient or Newton signal is not finite gives none.
-        let tc = &self.config.train;
-        let evaluated: Vec<Option<(senc_energy::Breakdown, Vec<Vec3>)>> = self
-            .lanes
-            .par_iter()
-            .zip(&self.progress.sequences)
-            .zip(&inputs)
-            .zip(&nexts)
-            .map(|(((lane, seq), input), next)| {
-                let em = &lane.energy.as_ref().expect("built above").1;
-                if !finite(next) {
-                    return Ok(None);
-                }
-                let Ok(fe) = em.frame(&seq.curr, &seq.prev, Some((&input.body_t, &input.body_n))) else {
-                    return Ok(None);
-                };
-                let mut grad = vec![Vec3::zeros(); next.len()];
-                let Ok(b) = fe.evaluate(next, Some(&mut grad)) else {
-                    return Ok(None);
-                };
-                if !(b.total.is_finite() && finite(&grad)) {
-                    return Ok(None);
-                }
-                if tc.newton_weight > 0.0 {
-                    crate::signal::newton_signal(
-                        &fe,
-                        next,
-                        em.masses(),
-                        input.dt,
-                        tc.newton_weight,
-                        &mut grad,
-                        tc.signal_cg_iterations,
-                        tc.signal_cg_tolerance,
-                    )?;
-                }
-                Ok(Some((b, grad)))
-            })
-            .collect::<Result<_, TrainError>>()?;
-
+        let em = &self.energy_cache.as_ref().expect("built above").1;
+        let mut grad = vec![Vec3::zeros(); next.len()];
+        let fe = if finite(&next) { em.frame(&seq.curr, &seq.prev, Some((&body_t, &body_n))).ok() } else { None };
+        let evaluated = fe.as_ref().and_then(|fe| fe.evaluate(&next, Some(&mut grad)).ok());
         let lr = self.config.train.lr(k);
         let mut report = StepReport {
             phase,
@@ -418,32 +297,27 @@ impl Trainer {
             skipped: true,
             skipped_total: 0,
         };
-        let n_ok = evaluated.iter().filter(|e| e.is_some()).count();
+        let ok = evaluated.filter(|b| b.total.is_finite() && finite(&grad));
         let mut stepped = false;
-        if n_ok > 0 {
-            // The mean over the lanes that gave an energy: their gradients scaled by 1/n,
-            // zero rows for the others.
-            let w = 1.0 / n_ok as f64;
-            let mut grad = Vec::with_capacity(response.dims()[0]);
-            let (mut loss, mut terms) = (0.0, Vec::<(&'static str, f64)>::new());
-            for (e, next) in evaluated.iter().zip(&nexts) {
-                match e {
-                    Some((b, g)) => {
-                        grad.extend(g.iter().map(|v| v * w));
-                        loss += b.total * w;
-                        for &(name, v) in &b.terms {
-                            match terms.iter_mut().find(|(n, _)| *n == name) {
-                                Some(t) => t.1 += v * w,
-                                None => terms.push((name, v * w)),
-                            }
-                        }
-                    }
-                    None => grad.extend(std::iter::repeat_n(Vec3::zeros(), next.len())),
+        if let Some(b) = ok {
+            report.loss = b.total;
+            report.terms = b.terms.clone();
+            if self.config.train.newton_weight > 0.0 {
+                if let Some(fe) = &fe {
+                    let t = &self.config.train;
+                    crate::signal::newton_signal(
+                        fe,
+                        &next,
+                        em.masses(),
+                        dt,
+                        t.newton_weight,
+                        &mut grad,
+                        t.signal_cg_iterations,
+                        t.signal_cg_tolerance,
+                    )?;
                 }
             }
-            report.loss = loss;
-            report.terms = terms;
-            let grads = senc_model::surrogate_backward(response, &grad)?;
+            let grads = senc_model::surrogate_backward(accel_t, &grad)?;
             let mut gp = GradientsParams::from_grads(grads, &self.model.network);
             let norm = crate::clip::clip_global_norm(&self.model.network, &mut gp, self.config.train.grad_clip);
             report.grad_norm = norm;
@@ -453,19 +327,17 @@ impl Trainer {
                 stepped = true;
             }
         }
-        let skipped = &mut self.progress.skipped[usize::from(phase == Phase::Two)];
-        for ((s, next), e) in self.progress.sequences.iter_mut().zip(nexts).zip(&evaluated) {
-            if stepped && e.is_some() {
-                advance(s, next, &garments[s.garment]);
-                s.steps_left -= 1;
-            } else {
-                *skipped += 1;
-                s.steps_left = 0;
-                tracing::warn!(%phase, iteration = k, "non-finite energy or gradient: step skipped");
-            }
+        let s = self.progress.sequence.as_mut().expect("running");
+        if stepped {
+            report.skipped = false;
+            advance(s, next, &g);
+            s.steps_left -= 1;
+        } else {
+            self.progress.skipped[usize::from(phase == Phase::Two)] += 1;
+            s.steps_left = 0;
+            tracing::warn!(%phase, iteration = k, "non-finite energy or gradient: step skipped");
         }
-        report.skipped = !stepped;
-        report.skipped_total = *skipped;
+        report.skipped_total = self.progress.skipped[usize::from(phase == Phase::Two)];
         self.progress.iteration += 1;
         Ok(report)
     }
@@ -500,7 +372,7 @@ impl Trainer {
 
     fn end_phase(&mut self) -> Result<(), TrainError> {
         let p = self.progress.phase;
-        self.progress.sequences.clear();
+        self.progress.sequence = None;
         let dir = self.out.join(format!("phase{}", p.number()));
         if p == Phase::One {
             self.progress.phase = Phase::Two;
@@ -508,7 +380,7 @@ impl Trainer {
             // Phase 2 starts from phase 1's weights with a fresh Adam state; OUT/phase1 is
             // saved with it, so that phase 2 can be (re)started from a copy of it exactly.
             self.optim = AdamConfig::new().init();
-            self.lanes.clear();
+            self.energy_cache = None;
             self.checkpoint(&dir)?;
             tracing::info!(dir = %dir.display(), skipped = self.progress.skipped[0], "phase 1 done");
         } else {
