@@ -142,12 +142,8 @@ fn train(a: &TrainArgs) -> Result<()> {
     let tmp = std::env::temp_dir().join(format!("senc-bench-train-{}", std::process::id()));
     let mut rounds = Vec::with_capacity(a.rounds);
     for round in 0..a.rounds {
-        let doc = RunConfig::resolve(&a.config, None, &[])?;
         let out = tmp.join(format!("round{round}"));
-        std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-        let resolved = doc.moved_to(&out.join(senc_train::trainer::CONFIG_FILE), senc_train::config::PATH_KEYS);
-        std::fs::write(&resolved.path, resolved.to_toml())?;
-        let mut trainer = senc_train::Trainer::new(&resolved.path, &out)?;
+        let mut trainer = crate::train::fresh_trainer(&a.config, None, &[], &out)?;
         trainer.config.train.checkpoint_every = u64::MAX;
         while trainer.progress.warmup_done < trainer.config.train.warmup_iterations {
             trainer.step()?;

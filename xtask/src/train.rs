@@ -7,7 +7,7 @@
 //! relative to `OUT`; the run trains from that file, so each checkpoint holds the exact
 //! config it was trained with.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
@@ -42,6 +42,18 @@ pub struct Args {
     pub stop_after: Option<u64>,
 }
 
+/// A new run of `config` in `out`: the config resolved (`seed`, then each override) and
+/// written to `OUT/config.toml` with its paths rewritten relative to `OUT`, the trainer
+/// started from that file.
+pub fn fresh_trainer(config: &Path, seed: Option<u64>, overrides: &[String], out: &Path) -> Result<Trainer> {
+    let doc = RunConfig::resolve(config, seed, overrides)?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let resolved = doc.moved_to(&out.join(senc_train::trainer::CONFIG_FILE), PATH_KEYS);
+    std::fs::write(&resolved.path, resolved.to_toml())
+        .with_context(|| format!("writing {}", resolved.path.display()))?;
+    Trainer::new(&resolved.path, out).with_context(|| format!("starting {}", config.display()))
+}
+
 /// Trains (or resumes) and prints where the checkpoints are.
 pub fn run(args: Args) -> Result<()> {
     let out = args.out.unwrap_or_else(|| PathBuf::from("runs").join(args.config.file_stem().unwrap_or_default()));
@@ -52,12 +64,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut trainer = if resume {
         Trainer::resume(out).with_context(|| format!("resuming from {}", out.display()))?
     } else {
-        let doc = RunConfig::resolve(&args.config, args.seed, &args.overrides)?;
-        std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-        let resolved = doc.moved_to(&out.join(senc_train::trainer::CONFIG_FILE), PATH_KEYS);
-        std::fs::write(&resolved.path, resolved.to_toml())
-            .with_context(|| format!("writing {}", resolved.path.display()))?;
-        Trainer::new(&resolved.path, out).with_context(|| format!("starting {}", args.config.display()))?
+        fresh_trainer(&args.config, args.seed, &args.overrides, out)?
     };
     let t = &trainer.config.train;
     let total = t.warmup_iterations + t.phase1_iterations + t.phase2_iterations;
