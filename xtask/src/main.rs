@@ -91,6 +91,13 @@ enum Command {
 
 fn main() -> std::process::ExitCode {
     alloc::keep_freed_memory();
+    // The main thread is one of rayon's workers (thread count from RAYON_NUM_THREADS, else
+    // one per core): a parallel loop runs its first share on the calling thread instead of
+    // handing all of it to a pool thread and waiting. With one thread there is no pool
+    // thread at all, so nothing spins between the short parallel pieces of a step.
+    if let Err(e) = rayon::ThreadPoolBuilder::new().use_current_thread().build_global() {
+        eprintln!("warning: rayon's global pool was already built: {e}");
+    }
     let cli = Cli::parse();
     let result: Result<()> = match cli.command {
         None => {
