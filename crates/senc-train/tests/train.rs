@@ -133,6 +133,32 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// The next sequence's start is built beside the step that ends the running one when rayon
+/// has a second thread: the run is the same, weight for weight, on one thread and on two.
+#[test]
+fn training_gives_the_same_weights_on_one_thread_and_on_two() {
+    let d = tmp("threads");
+    let cfg = tiny_config(&d);
+    let run = |threads: usize| {
+        let out = d.join(format!("t{threads}"));
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let mut losses = Vec::new();
+        pool.install(|| {
+            let mut t = Trainer::new(&cfg, &out).unwrap();
+            t.run(None, |r| losses.push(r.loss)).unwrap();
+            assert!(t.finished());
+        });
+        (params(&out.join("phase2")), losses)
+    };
+    let (one, two) = (run(1), run(2));
+    assert_eq!(one.1.len(), 3 + 6 + 4, "warm-up and both phases");
+    assert!(one.1.iter().skip(3).all(|l| l.is_finite()), "{:?}", one.1);
+    assert_eq!(one.0, two.0, "phase-2 weights depend on the thread count");
+    let bits = |l: &[f64]| l.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&one.1), bits(&two.1), "losses depend on the thread count");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// `train --seed --set` in library terms: a config extending the smoke config, resolved with
 /// overrides and saved as the run's `config.toml` (paths rewritten relative to the run),
 /// trains with the overridden values, and its checkpoints give back that config.

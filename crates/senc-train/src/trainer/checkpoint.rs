@@ -35,6 +35,10 @@ pub struct Progress {
     pub rng_word_pos: u128,
     /// The running sequence.
     pub sequence: Option<Sequence>,
+    /// The next sequence, when the running one ends at the next iteration: started beside
+    /// the step that ends the running one, its draws already made.
+    #[serde(default)]
+    pub next_sequence: Option<Sequence>,
     /// Whether both phases are done.
     pub finished: bool,
     /// States the network reached when rolled out alone (`[train] pool_share`), as

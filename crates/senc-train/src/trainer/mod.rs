@@ -33,6 +33,7 @@ mod log;
 mod sampling;
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -49,14 +50,14 @@ pub use sampling::{material_from_config, scene_material, Sequence};
 use crate::config::{Phase, RunConfig};
 use crate::error::TrainError;
 use crate::garment::Garment;
-use sampling::{advance, finite, frame_state};
+use sampling::{advance, build_start, finite, frame_state};
 
 /// The trainer.
 pub struct Trainer {
     /// The run's config.
     pub config: RunConfig,
     config_text: String,
-    garments: Vec<Garment>,
+    garments: Arc<Vec<Garment>>,
     /// The model (on an autodiff device).
     pub model: Model,
     optim: ModuleOptimizer,
@@ -66,7 +67,7 @@ pub struct Trainer {
     out: PathBuf,
     energy_cache: Option<(u64, EnergyModel)>,
     /// Per garment: the phase-1 energy with the scene's material that relaxes starts.
-    relax_energy: Vec<Option<EnergyModel>>,
+    relax_energy: Vec<Option<Arc<EnergyModel>>>,
     sequence_id: u64,
 }
 
@@ -163,7 +164,7 @@ impl Trainer {
         })
     }
 
-    fn load_garments(config: &RunConfig) -> Result<Vec<Garment>, TrainError> {
+    fn load_garments(config: &RunConfig) -> Result<Arc<Vec<Garment>>, TrainError> {
         let files = config.scene_files();
         if files.is_empty() {
             return Err(TrainError::Config {
@@ -178,7 +179,7 @@ impl Trainer {
                 return Err(TrainError::Invalid(format!("garment {}: no training motion has 3 frames", g.name())));
             }
         }
-        Ok(garments)
+        Ok(Arc::new(garments))
     }
 
     /// The garments of this run.
@@ -254,12 +255,43 @@ impl Trainer {
             self.fill_pool()?;
         }
         if self.progress.sequence.as_ref().is_none_or(|s| s.steps_left == 0) {
-            let s = self.start_sequence(len, true)?;
+            let s = match self.progress.next_sequence.take() {
+                Some(s) => {
+                    self.sequence_id += 1;
+                    s
+                }
+                None => self.start_sequence(len, true)?,
+            };
             self.progress.sequence = Some(s);
             self.energy_cache = None;
         }
+        // When this step ends the running sequence, the next one's start is drawn now (the
+        // RNG is drawn in the same order as when it is started at the next iteration) and
+        // built (skinned, relaxed out of the body) beside this step, on a second thread
+        // where rayon has one.
+        let next_k = k + 1;
+        let prefetch = self.progress.sequence.as_ref().is_some_and(|s| s.steps_left == 1)
+            && next_k < self.phase_iterations(phase)
+            && !(self.config.train.pool_share > 0.0 && next_k % self.config.train.pool_every == 0);
+        if !prefetch {
+            return self.sequence_step(len);
+        }
+        let plan = self.draw_start(self.config.train.rollout_len(next_k), true)?;
+        let (garments, relax_iterations) = (Arc::clone(&self.garments), self.config.train.relax_start_iterations);
+        let (report, next) =
+            rayon::join(|| self.sequence_step(len), move || build_start(plan, &garments, relax_iterations));
+        self.progress.next_sequence = Some(next?);
+        report
+    }
+
+    /// One optimiser step on the running sequence's next step (`len`: the rollout length
+    /// of this iteration, for the report).
+    fn sequence_step(&mut self, len: usize) -> Result<StepReport, TrainError> {
+        let phase = self.progress.phase;
+        let k = self.progress.iteration;
         let seq = self.progress.sequence.clone().expect("sequence started above");
-        let g = self.garments[seq.garment].clone();
+        let garments = Arc::clone(&self.garments);
+        let g = &garments[seq.garment];
         let motion = &g.scene.train[seq.motion];
         let body_t = if seq.first_step { g.body_at(motion, 0)? } else { g.body_at(motion, seq.frame)? };
         let body_n = g.body_at(motion, seq.frame + 1)?;
@@ -373,6 +405,7 @@ impl Trainer {
     fn end_phase(&mut self) -> Result<(), TrainError> {
         let p = self.progress.phase;
         self.progress.sequence = None;
+        self.progress.next_sequence = None;
         let dir = self.out.join(format!("phase{}", p.number()));
         if p == Phase::One {
             self.progress.phase = Phase::Two;

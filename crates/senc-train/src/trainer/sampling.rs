@@ -4,9 +4,11 @@
 //! material and external force and noise on its positions, and moves on one frame per
 //! training step.
 
+use std::sync::Arc;
+
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
-use senc_energy::Material;
+use senc_energy::{EnergyModel, Material};
 use senc_geom::Vec3;
 use senc_model::FrameState;
 use serde::{Deserialize, Serialize};
@@ -89,11 +91,86 @@ pub(super) fn finite(v: &[Vec3]) -> bool {
     v.iter().all(|p| p.iter().all(|c| c.is_finite()))
 }
 
+/// What a sequence start draws from the RNG, drawn in one go ([`Trainer::draw_start`]).
+/// Building the start from it ([`build_start`]: skinning, relaxing out of the body, adding
+/// the drawn noise) uses no randomness, so the trainer can build the next sequence's start
+/// on another thread beside a training step and still follow the RNG exactly as a
+/// sequential run does.
+#[derive(Debug, Clone)]
+pub(super) enum StartPlan {
+    /// A state of the visited-state pool, continued as it is.
+    Pooled(Sequence),
+    /// A skinned start.
+    Skinned(SkinnedStart),
+}
+
+/// The draws of a start from a skinned garment.
+#[derive(Debug, Clone)]
+pub(super) struct SkinnedStart {
+    garment: usize,
+    motion: usize,
+    frame: usize,
+    len: usize,
+    first: bool,
+    material: Material,
+    external: [f64; 3],
+    /// Per vertex, the noise added to both of the start's frames (empty: none).
+    noise: Vec<Vec3>,
+    /// The phase-1 energy that relaxes the start (`None`: not relaxed).
+    relax: Option<Arc<EnergyModel>>,
+}
+
+/// Builds the start a plan describes on `garments` (deterministic: no RNG).
+pub(super) fn build_start(
+    plan: StartPlan,
+    garments: &[Garment],
+    relax_iterations: usize,
+) -> Result<Sequence, TrainError> {
+    let s = match plan {
+        StartPlan::Pooled(s) => return Ok(s),
+        StartPlan::Skinned(s) => s,
+    };
+    let g = &garments[s.garment];
+    let m = &g.scene.train[s.motion];
+    let (mut prev, mut curr) = if s.first {
+        let x = g.skinned_at(m, 0)?;
+        (x.clone(), x)
+    } else {
+        (g.skinned_at(m, s.frame - 1)?, g.skinned_at(m, s.frame)?)
+    };
+    if let Some(em) = &s.relax {
+        g.relax_start(em, &mut prev, &mut curr, &g.body_at(m, s.frame)?, relax_iterations)?;
+    }
+    for ((p, c), d) in prev.iter_mut().zip(curr.iter_mut()).zip(&s.noise) {
+        *p += d;
+        *c += d;
+    }
+    Ok(Sequence {
+        garment: s.garment,
+        motion: s.motion,
+        frame: s.frame,
+        steps_left: s.len,
+        material: s.material,
+        external: s.external,
+        prev,
+        curr,
+        first_step: s.first,
+    })
+}
+
 impl Trainer {
     /// A new training sequence of `len` steps: from the visited-state pool with
     /// probability `[train] pool_share` when `pooled` allows it (never in warm-up), else
     /// from a skinned garment.
     pub(super) fn start_sequence(&mut self, len: usize, pooled: bool) -> Result<Sequence, TrainError> {
+        let plan = self.draw_start(len, pooled)?;
+        self.sequence_id += 1;
+        build_start(plan, &self.garments, self.config.train.relax_start_iterations)
+    }
+
+    /// Every random draw of a new sequence start (see [`StartPlan`]), in the order a start
+    /// has always drawn them.
+    pub(super) fn draw_start(&mut self, len: usize, pooled: bool) -> Result<StartPlan, TrainError> {
         let t = self.config.train.clone();
         let warm = self.progress.warmup_done < t.warmup_iterations;
         if pooled
@@ -104,8 +181,7 @@ impl Trainer {
         {
             let p = &self.progress.pool[self.rng.random_range(0..self.progress.pool.len())];
             if p.frame + len + 1 < self.garments[p.garment].scene.train[p.motion].n_frames() {
-                self.sequence_id += 1;
-                return Ok(Sequence { steps_left: len, first_step: false, ..p.clone() });
+                return Ok(StartPlan::Pooled(Sequence { steps_left: len, first_step: false, ..p.clone() }));
             }
         }
         let gi = self.rng.random_range(0..self.garments.len());
@@ -159,44 +235,37 @@ impl Trainer {
             }
         };
         let ext = Vec3::from(g.scene.config.external_force.acceleration) + dir * mag;
-        let (mut prev, mut curr) = if first {
-            let x = g.skinned_at(motion, 0)?;
-            (x.clone(), x)
-        } else {
-            (g.skinned_at(motion, frame - 1)?, g.skinned_at(motion, frame)?)
-        };
-        if t.relax_start_iterations > 0 && !first {
+        let relax = if t.relax_start_iterations > 0 && !first {
             if self.relax_energy.len() <= gi {
                 self.relax_energy.resize_with(self.garments.len(), || None);
             }
             if self.relax_energy[gi].is_none() {
                 let ec = self.config.energy_for(Phase::One, scene_material(g)?, [0.0; 3]);
-                self.relax_energy[gi] = Some(g.energy_model(ec, t.relax_start_dt)?);
+                self.relax_energy[gi] = Some(Arc::new(g.energy_model(ec, t.relax_start_dt)?));
             }
-            let em = self.relax_energy[gi].as_ref().expect("built above");
-            g.relax_start(em, &mut prev, &mut curr, &g.body_at(motion, frame)?, t.relax_start_iterations)?;
-        }
+            self.relax_energy[gi].clone()
+        } else {
+            None
+        };
+        let n_vertices = g.rest.n_vertices();
+        let mut noise = Vec::new();
         if t.noise_std > 0.0 {
             let normal = Normal::new(0.0, t.noise_std).map_err(|e| TrainError::Invalid(e.to_string()))?;
-            for (p, c) in prev.iter_mut().zip(curr.iter_mut()) {
-                let d =
-                    Vec3::new(normal.sample(&mut self.rng), normal.sample(&mut self.rng), normal.sample(&mut self.rng));
-                *p += d;
-                *c += d;
-            }
+            noise.extend((0..n_vertices).map(|_| {
+                Vec3::new(normal.sample(&mut self.rng), normal.sample(&mut self.rng), normal.sample(&mut self.rng))
+            }));
         }
-        self.sequence_id += 1;
-        Ok(Sequence {
+        Ok(StartPlan::Skinned(SkinnedStart {
             garment: gi,
             motion: mi,
             frame,
-            steps_left: len,
+            len,
+            first,
             material,
             external: ext.into(),
-            prev,
-            curr,
-            first_step: first,
-        })
+            noise,
+            relax,
+        }))
     }
 
     /// Rolls the current network out alone for `[train] pool_frames` frames from a fresh
