@@ -295,10 +295,10 @@ impl Trainer {
         let motion = &g.scene.train[seq.motion];
         let body_t = if seq.first_step { g.body_at(motion, 0)? } else { g.body_at(motion, seq.frame)? };
         let body_n = g.body_at(motion, seq.frame + 1)?;
-        let accel = self.gravity(&g) + Vec3::from(seq.external);
+        let accel = self.gravity(g) + Vec3::from(seq.external);
         // The long first step uses its own Δt (in the forcing and in the energy).
         let dt = if seq.first_step { g.scene.config.first_step_dt } else { g.scene.dt() };
-        let frame = frame_state(&g, &seq, &body_t, &body_n, accel, dt);
+        let frame = frame_state(g, &seq, &body_t, &body_n, accel, dt);
         let graph = GraphInputs::build(&frame, &self.model.graph)?;
         let (accel_t, mut next) = self.model.predict(&graph, &frame)?;
         // Pinned vertices follow the skinned garment (their energy gradient is zero, so the
@@ -362,7 +362,7 @@ impl Trainer {
         let s = self.progress.sequence.as_mut().expect("running");
         if stepped {
             report.skipped = false;
-            advance(s, next, &g);
+            advance(s, next, g);
             s.steps_left -= 1;
         } else {
             self.progress.skipped[usize::from(phase == Phase::Two)] += 1;
