@@ -1,7 +1,8 @@
 //! Penetration volumes and crossing face pairs against libigl's exact arrangement
 //! (reference answers committed under `tests/fixtures/`, computed offline; see its README).
 
-use senc_geom::intersect::self_intersections;
+use senc_geom::cut::CutMesh;
+use senc_geom::intersect::{self_intersections, SelfIntersector};
 use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
 use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, VolumeRule};
 use senc_testmesh::fixture;
@@ -174,6 +175,34 @@ fn garment_frames_match_libigl_with_nothing_skipped() {
             assert!((p.volume - expect).abs() <= 1e-6 * expect, "{g} {f}: {} vs libigl {expect} {d:?}", p.volume);
             assert_eq!(d.patches_skipped + d.inconsistent_walls + d.complex_faces + d.open_paths, 0, "{g} {f}: {d:?}");
             assert_eq!(d.intersecting_pairs as u64, a["intersecting_face_pairs_closed"].as_u64().unwrap(), "{g} {f}");
+        }
+    }
+}
+
+/// Faces are cut in chunks on rayon's threads and joined in face order with their crossing
+/// nodes renumbered: the cut is the same on any number of threads (the chunks differ).
+#[test]
+fn garment_frames_cut_the_same_on_any_number_of_threads() {
+    for (g, f) in [("tshirt", 20), ("skirt", 90)] {
+        let mesh = garment_frame(g, f);
+        let closure = close_holes(&mesh, &HoleSelection::All).unwrap();
+        let m = closure.mesh();
+        let inter = SelfIntersector::new(m).find(m);
+        let cut_on = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| CutMesh::new(m, &inter))
+        };
+        let one = cut_on(1);
+        assert!(one.crossings.len() >= 50, "{g} {f}: {} crossings", one.crossings.len());
+        for threads in [2, 3, 7] {
+            let c = cut_on(threads);
+            assert_eq!(c.pieces, one.pieces, "{g} {f} on {threads} threads");
+            assert_eq!(c.crossings, one.crossings, "{g} {f} on {threads} threads");
+            assert_eq!(c.face_pieces, one.face_pieces, "{g} {f} on {threads} threads");
+            for piece in &one.pieces {
+                let (a, b) = (piece.cycles[0][0].0, piece.cycles[0][1].0);
+                assert_eq!(c.piece_with_directed_edge(a, b), one.piece_with_directed_edge(a, b));
+            }
         }
     }
 }

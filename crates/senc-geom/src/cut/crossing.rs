@@ -6,7 +6,7 @@
 
 use rustc_hash::FxHashMap;
 
-use super::{point_in_polygon, CutMesh, EdgeTag};
+use super::{point_in_polygon, EdgeTag, Split};
 use super::{signed_area, Event, FaceFrame, Piece};
 
 /// A crossing of two chord edges inside one face: a triple point of the surface.
@@ -68,7 +68,7 @@ pub(super) fn find_crossings(
     out
 }
 
-impl CutMesh {
+impl Split {
     /// Splits a face whose chords cross (see the module docs). Returns false, adding
     /// nothing, when the planar graph cannot be traced (the caller keeps the face whole).
     pub(super) fn split_crossing_face(
@@ -79,7 +79,7 @@ impl CutMesh {
         edges: &[(u32, u32, u32, usize)],
         crossings: &[(usize, usize, f64, f64, [f64; 2])],
     ) -> bool {
-        let base = self.crossing_base();
+        let base = self.crossing_base;
         let first_crossing = self.crossings.len() as u32;
         let mut local: FxHashMap<u32, [f64; 2]> = FxHashMap::default();
         let mut splits: Vec<Vec<(f64, u32)>> = vec![Vec::new(); edges.len()];

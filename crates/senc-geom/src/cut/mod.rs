@@ -18,6 +18,7 @@
 //! Chords that end inside a face (a path reaching an open boundary) do not split it; they are
 //! counted in [`CutMesh::n_dangling_chords`].
 
+use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 mod crossing;
@@ -155,6 +156,10 @@ impl CutMesh {
             face_pieces: vec![0..0; nf],
             ..Default::default()
         };
+        // Faces are split independently: in chunks on rayon's threads, each numbering its
+        // crossing nodes from the chunk's own start, then joined in face order with those
+        // numbers shifted, so the result is the sequential one.
+        let mut groups: Vec<(u32, usize, usize)> = Vec::new();
         let mut i = 0;
         while i < halves.len() {
             let face = halves[i].0;
@@ -162,12 +167,48 @@ impl CutMesh {
             while j < halves.len() && halves[j].0 == face {
                 j += 1;
             }
-            let segs: Vec<HalfSeg> = halves[i..j].iter().map(|h| h.1).collect();
-            let start = cut.pieces.len() as u32;
-            cut.split_face(mesh, inter, face, &segs);
-            cut.face_pieces[face as usize] = start..cut.pieces.len() as u32;
+            groups.push((face, i, j));
             i = j;
         }
+        let base = cut.crossing_base();
+        let chunk = groups.len().div_ceil(4 * rayon::current_num_threads()).max(16);
+        let parts: Vec<Split> = groups
+            .par_chunks(chunk)
+            .map(|faces| {
+                let mut part = Split { n_vertices: nv as u32, crossing_base: base, ..Default::default() };
+                let mut segs: Vec<HalfSeg> = Vec::new();
+                for &(face, i, j) in faces {
+                    segs.clear();
+                    segs.extend(halves[i..j].iter().map(|h| h.1));
+                    let start = part.pieces.len() as u32;
+                    part.split_face(mesh, inter, face, &segs);
+                    part.ranges.push((face, start..part.pieces.len() as u32));
+                }
+                part
+            })
+            .collect();
+        let n_pieces = parts.iter().map(|p| p.pieces.len()).sum();
+        cut.pieces.reserve(n_pieces);
+        for part in parts {
+            let (piece_shift, node_shift) = (cut.pieces.len() as u32, cut.crossings.len() as u32);
+            for (face, r) in part.ranges {
+                cut.face_pieces[face as usize] = r.start + piece_shift..r.end + piece_shift;
+            }
+            for mut piece in part.pieces {
+                if node_shift > 0 {
+                    for node in piece.cycles.iter_mut().flatten().map(|c| &mut c.0) {
+                        if *node >= base {
+                            *node += node_shift;
+                        }
+                    }
+                }
+                cut.pieces.push(piece);
+            }
+            cut.crossings.extend(part.crossings);
+            cut.n_dangling_chords += part.n_dangling_chords;
+            cut.n_complex_faces += part.n_complex_faces;
+        }
+        cut.directed.reserve(cut.pieces.iter().flat_map(|p| &p.cycles).map(Vec::len).sum());
         for (k, piece) in cut.pieces.iter().enumerate() {
             for cycle in &piece.cycles {
                 for w in 0..cycle.len() {
@@ -277,13 +318,29 @@ impl CutMesh {
             }
         }
     }
+}
 
+/// The pieces of some cut faces, split apart from the rest (see [`CutMesh::new`]): their
+/// crossing nodes are numbered from `crossing_base` as if they were the first.
+#[derive(Default)]
+pub(crate) struct Split {
+    n_vertices: u32,
+    crossing_base: u32,
+    pieces: Vec<Piece>,
+    /// Each split face and the range of its pieces in `pieces`.
+    ranges: Vec<(u32, std::ops::Range<u32>)>,
+    crossings: Vec<ChordCrossing>,
+    n_dangling_chords: usize,
+    n_complex_faces: usize,
+}
+
+impl Split {
     /// Splits face `face` along its half segments `segs`: walks them into chords and closed
     /// loops, orders the chord ends around the perimeter, traces the pieces between chords,
     /// then places each closed loop as a disk piece and a hole of the piece around it. A
     /// face whose segments cannot be ordered is kept whole and counted as complex.
     fn split_face(&mut self, mesh: &TriMesh, inter: &SelfIntersections, face: u32, segs: &[HalfSeg]) {
-        let frame = FaceFrame { mesh, inter, nv: self.n_vertices as u32, fv: mesh.faces()[face as usize] };
+        let frame = FaceFrame { mesh, inter, nv: self.n_vertices, fv: mesh.faces()[face as usize] };
         let walk = walk_segments(&frame, segs);
         let mut proper: Vec<Vec<(u32, u32)>> = Vec::new();
         for c in walk.chords {
