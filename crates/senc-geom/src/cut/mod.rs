@@ -323,7 +323,7 @@ impl CutMesh {
 /// The pieces of some cut faces, split apart from the rest (see [`CutMesh::new`]): their
 /// crossing nodes are numbered from `crossing_base` as if they were the first.
 #[derive(Default)]
-pub(crate) struct Split {
+struct Split {
     n_vertices: u32,
     crossing_base: u32,
     pieces: Vec<Piece>,
