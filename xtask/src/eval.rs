@@ -37,9 +37,14 @@ pub struct Args {
     pub config: Vec<PathBuf>,
     /// Garments the models never saw, one row each: OBJs in metres (fitted to the body
     /// first, as `cargo xtask fit` does, with its `X.obj#WHICH` forms) or fitted .msgpack
-    /// assets. Every loop but `neck` is closed.
+    /// assets. Every loop but `neck` is closed, and a loop named `waist` is pinned.
     #[arg(long, num_args = 1..)]
     pub garment: Vec<PathBuf>,
+    /// Leave out the reference solver's rows. They depend only on the garment, motion and
+    /// config, not on the networks, and on garments of t-shirt size they cost minutes per
+    /// motion; leave them out when another report already has them.
+    #[arg(long)]
+    pub no_solver: bool,
     /// Also roll each checkpoint out with every frame refined by N Newton iterations of
     /// the reference solver (phase-2 energy), one row per value: `--refine 0,2` gives the
     /// network alone and refined by 2. Default 0.
@@ -154,8 +159,8 @@ fn print_row(row: &Row) {
     );
 }
 
-/// Evaluates every checkpoint, adds the reference solver's row per garment, and writes the
-/// reports.
+/// Evaluates every checkpoint, adds the reference solver's row per garment (unless
+/// `--no-solver`), and writes the reports.
 pub fn run(args: Args) -> Result<()> {
     let mut rows = Vec::new();
     let mut curve: Vec<CurvePoint> = Vec::new();
@@ -199,7 +204,7 @@ pub fn run(args: Args) -> Result<()> {
                     );
                 }
             }
-            if !solver_for.iter().any(|s| s.config == m.config && s.garment == m.garment) {
+            if !args.no_solver && !solver_for.iter().any(|s| s.config == m.config && s.garment == m.garment) {
                 solver_for.push(m.clone());
             }
             rows.extend(method_rows);

@@ -40,13 +40,17 @@ impl Garment {
     /// fitted to the same body (`cargo xtask fit`), so that a model can be run on a garment
     /// it never saw (the paper's Table 3). Every boundary loop of the asset is closed for
     /// the self-collision volume except the one named `neck` (the scene's own `close_holes`
-    /// name the scene's garment, not this one). The motions, material and forces are the
-    /// scene's.
+    /// name the scene's garment, not this one). A loop named `waist` (skirts and trousers,
+    /// whose top opening `fit` finds below the neck) is pinned, as the skirt and pants
+    /// scenes pin theirs, whatever the scene pins: nothing else holds such a garment up. The
+    /// motions, material and forces are the scene's.
     pub fn load_unseen(path: &std::path::Path, asset: &std::path::Path, margin: f64) -> Result<Self, TrainError> {
         let mut config = senc_scene::SceneConfig::read(path)?;
         let fitted = senc_scene::GarmentAsset::load(asset)?;
         config.garment = asset.to_path_buf();
-        config.close_holes = fitted.loop_names().into_iter().filter(|n| n != "neck").collect();
+        let loops = fitted.loop_names();
+        config.pin = loops.iter().filter(|n| *n == "waist").cloned().collect();
+        config.close_holes = loops.into_iter().filter(|n| n != "neck").collect();
         let scene = Scene::from_config(config)?;
         Self::new(Arc::new(scene), margin)
     }

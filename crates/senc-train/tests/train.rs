@@ -642,3 +642,33 @@ fn against_solver_reports_one_step_errors_on_both_rollouts() {
     assert_eq!(same.final_distance_cm, 0.0);
     assert!(compare(&network, &reference).max_distance_cm > 0.0);
 }
+
+/// A garment a model never saw hangs as its kind does in training: a skirt run in the
+/// t-shirt's scene has its waist pinned (the t-shirt scene pins nothing) and every loop
+/// closed; a t-shirt run in the skirt's scene pins nothing and leaves its neck open.
+#[test]
+fn unseen_garments_pin_their_waist_and_leave_the_neck_open() {
+    let data = root().join("data/garments");
+    let skirt_asset = senc_scene::GarmentAsset::load(&data.join("skirt.msgpack")).unwrap();
+    let waist: Vec<usize> = {
+        let mut v: Vec<usize> = skirt_asset
+            .loops
+            .iter()
+            .find(|l| l.name == "waist")
+            .unwrap()
+            .vertices
+            .iter()
+            .map(|&i| i as usize)
+            .collect();
+        v.sort_unstable();
+        v
+    };
+    let g = senc_train::Garment::load_unseen(&root().join("configs/tshirt.toml"), &data.join("skirt.msgpack"), 0.05)
+        .unwrap();
+    assert_eq!(g.pinned, waist);
+    assert!(g.open_holes.is_empty());
+    let g = senc_train::Garment::load_unseen(&root().join("configs/skirt.toml"), &data.join("tshirt.msgpack"), 0.05)
+        .unwrap();
+    assert!(g.pinned.is_empty());
+    assert_eq!(g.open_holes.len(), 1, "only the neck stays open");
+}
