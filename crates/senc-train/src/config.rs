@@ -467,8 +467,9 @@ impl RunConfig {
     /// The method this config trains, by what it changes against SENC: "SENC" (volume
     /// loss, self-collision edges without mesh edges), "baseline" (HOOD: neither),
     /// "w/o self-col edges", "w. mesh edges", "w. area loss" or "repulsive" (the paper's
-    /// ablations), or a list of the deciding settings for any other mix. A seed other than
-    /// 0 is appended ("SENC, seed 1").
+    /// ablations), or a list of the deciding settings for any other mix. A run over several
+    /// scenes says how many garments it trains on ("SENC, 5 garments"), and a seed other
+    /// than 0 is appended ("SENC, seed 1").
     pub fn method_name(&self) -> String {
         let e = &self.energy;
         let on = |w: f64| w > 0.0;
@@ -485,6 +486,8 @@ impl RunConfig {
                 e.self_collision.weight, e.area_weight, e.repulsion.weight
             ),
         };
+        let scenes = self.scene_files().len();
+        let name = if scenes > 1 { format!("{name}, {scenes} garments") } else { name };
         match self.train.seed {
             0 => name,
             s => format!("{name}, seed {s}"),

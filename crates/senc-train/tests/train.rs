@@ -509,6 +509,11 @@ fn every_committed_config_parses() {
             }
         }
     }
+    assert_eq!(method("all.toml"), "SENC, 5 garments");
+    for garment in ["longsleeve", "pants", "dress"] {
+        assert_eq!(method(&format!("{garment}.toml")), "SENC");
+        assert_eq!(method(&format!("{garment}-eval-quick.toml")), "SENC");
+    }
 }
 
 /// The stress cases run an untrained network (the smoke config, elastic features on) on
@@ -649,7 +654,7 @@ fn against_solver_reports_one_step_errors_on_both_rollouts() {
 #[test]
 fn unseen_garments_pin_their_waist_and_leave_the_neck_open() {
     let data = root().join("data/garments");
-    let skirt_asset = senc_scene::GarmentAsset::load(&data.join("skirt.msgpack")).unwrap();
+    let skirt_asset = senc_scene::GarmentAsset::load(data.join("skirt.msgpack")).unwrap();
     let waist: Vec<usize> = {
         let mut v: Vec<usize> = skirt_asset
             .loops
