@@ -543,3 +543,65 @@ fn elastic_features_are_the_internal_forces_per_unit_mass() {
     assert_eq!(model.graph.node_features(), width);
     assert_eq!(model.step(&s.frame()).unwrap().len(), s.curr.len());
 }
+
+/// With `conserve_momentum` the garment's net response force `Σ m_i a_i` comes only from
+/// the vertices the body or a pin can push: zero with no body and no pins, whatever the
+/// weights; with a body, exactly the support columns' force on the vertices with a body
+/// edge; with pins, the support set is the pinned vertices' mesh neighbours. The fused
+/// inference path gives the same accelerations.
+#[test]
+fn conserve_momentum_lets_only_contact_and_pins_carry_the_garment() {
+    let scene = SyntheticScene::new(10, 0.01, 200, 11);
+    let device = Device::flex();
+    let mut model = Model::new(small_config().with_conserve_momentum(true), GraphConfig::default(), 3, &device);
+    let graph = model.build_graph(&scene.frame()).unwrap();
+    model.normalizers.update_inputs(&graph);
+    model.normalizers.output.update(&[0.5, 9.0, -0.3, -0.4, 8.0, 0.2]);
+    let masses = senc_model::graph::vertex_masses(&scene.rest, scene.material.density);
+    let net = |a: &[Vec3], m: &[f64]| a.iter().zip(m).map(|(a, m)| a * *m).sum::<Vec3>();
+    let size = |a: &[Vec3], m: &[f64]| a.iter().zip(m).map(|(a, m)| a.norm() * m).sum::<f64>();
+
+    // No body, no pins: nothing outside the garment, no net force.
+    let mut free = scene.frame();
+    free.body = None;
+    let g = model.build_graph(&free).unwrap();
+    assert!(g.support.iter().all(|&s| !s));
+    let a = tensor_to_vec3(model.forward(&g)).unwrap();
+    assert!(size(&a, &masses) > 0.0);
+    assert!(net(&a, &masses).norm() < 1e-5 * size(&a, &masses), "net {:?}", net(&a, &masses));
+
+    // A body: the net force is the support columns' on the vertices with a body edge.
+    let g = model.build_graph(&scene.frame()).unwrap();
+    let with_edge: HashSet<u32> =
+        g.edge_set(EdgeType::Body).receivers.iter().copied().filter(|&r| (r as usize) < g.n_cloth).collect();
+    assert!(!with_edge.is_empty(), "the scene's body is near the sheet");
+    assert!((0..g.n_cloth).all(|i| g.support[i] == with_edge.contains(&(i as u32))));
+    let a = tensor_to_vec3(model.forward(&g)).unwrap();
+    let raw = tensor_to_f64(model.network.forward(&model.tensors(&g)));
+    let (mean, std) = (model.normalizers.output.mean(), model.normalizers.output.std());
+    let support: Vec<Vec3> = (0..g.n_cloth)
+        .map(|i| {
+            let c = |k: usize| if g.support[i] { raw[6 * i + 3 + k] * std[k] + mean[k] } else { 0.0 };
+            Vec3::new(c(0), c(1), c(2))
+        })
+        .collect();
+    let want = net(&support, &masses);
+    assert!((net(&a, &masses) - want).norm() < 1e-5 * size(&a, &masses), "net {:?} vs {want:?}", net(&a, &masses));
+    let fused = senc_model::FusedNetwork::new(&model).accelerations(&g);
+    assert!(max_abs_diff(&fused, &a) < 1e-4 * a.iter().map(|v| v.amax()).fold(0.0, f64::max));
+
+    // Pins: their mesh neighbours are supported, the pinned vertices are not, and the
+    // unpinned vertices' internal forces still sum to zero.
+    let pinned = [0usize, 1, 2];
+    let mut pinned_frame = scene.frame();
+    pinned_frame.body = None;
+    pinned_frame.pinned = &pinned;
+    let g = model.build_graph(&pinned_frame).unwrap();
+    let topo = scene.rest.topology();
+    for i in 0..g.n_cloth {
+        let next_to_pin = !pinned.contains(&i) && pinned.iter().any(|&p| topo.find_edge(i as u32, p as u32).is_some());
+        assert_eq!(g.support[i], next_to_pin, "vertex {i}");
+        assert_eq!(g.free_mass[i] == 0.0, pinned.contains(&i));
+    }
+    assert!(g.support.iter().any(|&s| s));
+}
