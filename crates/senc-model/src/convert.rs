@@ -32,10 +32,6 @@ pub struct GraphTensors {
     pub nodes: Tensor<2>,
     /// Edge sets by [`EdgeType::index`]; `None` where the graph has no edge of that type.
     pub edges: Vec<Option<EdgeTensors>>,
-    /// [`GraphInputs::support`] as 0 or 1, `[n_cloth, 1]`.
-    pub support: Tensor<2>,
-    /// [`HostGraph::mass_share`], `[n_cloth, 1]`.
-    pub mass_share: Tensor<2>,
 }
 
 impl GraphTensors {
@@ -63,10 +59,7 @@ impl GraphTensors {
                 })
             })
             .collect();
-        let column = |v: Vec<f32>| Tensor::from_data(TensorData::new(v, [host.n_cloth, 1]), device);
-        let support = column(host.support.iter().map(|&s| f32::from(u8::from(s))).collect());
-        let mass_share = column(host.mass_share.clone());
-        Self { n_cloth: host.n_cloth, n_nodes: host.n_nodes, nodes, edges, support, mass_share }
+        Self { n_cloth: host.n_cloth, n_nodes: host.n_nodes, nodes, edges }
     }
 }
 
@@ -95,11 +88,6 @@ pub struct HostGraph {
     /// Edge sets by [`EdgeType::index`], one per normaliser in `norm`; `None` where the graph
     /// has no edge of that type.
     pub edges: Vec<Option<HostEdges>>,
-    /// [`GraphInputs::support`].
-    pub support: Vec<bool>,
-    /// Each cloth vertex's share of the free (unpinned) mass, `m_i / Σ m` over
-    /// [`GraphInputs::free_mass`] (all 0 when nothing is free).
-    pub mass_share: Vec<f32>,
 }
 
 impl HostGraph {
@@ -123,16 +111,7 @@ impl HostGraph {
                 })
             })
             .collect();
-        let total: f64 = graph.free_mass.iter().sum();
-        let mass_share = graph.free_mass.iter().map(|&m| if total > 0.0 { (m / total) as f32 } else { 0.0 }).collect();
-        Self {
-            n_cloth: graph.n_cloth,
-            n_nodes: graph.n_nodes(),
-            nodes: to_f32(&nodes),
-            edges,
-            support: graph.support.clone(),
-            mass_share,
-        }
+        Self { n_cloth: graph.n_cloth, n_nodes: graph.n_nodes(), nodes: to_f32(&nodes), edges }
     }
 }
 

@@ -395,15 +395,11 @@ impl FusedNetwork {
     /// The response acceleration per cloth vertex, m/s² (what [`Model::forward`] returns, in
     /// f64): the network's output de-normalised.
     pub fn accelerations(&self, graph: &GraphInputs) -> Vec<Vec3> {
-        let host = HostGraph::new(graph, &self.normalizers);
-        let out = self.forward_normalized(&host);
+        let out = self.forward_normalized(&HostGraph::new(graph, &self.normalizers));
         let (mean, std) = (self.normalizers.output.mean(), self.normalizers.output.std());
         // Same rounding as the burn path: f32 output · f32 std + f32 mean.
         let (mean, std): ([f32; 3], [f32; 3]) =
             (std::array::from_fn(|k| mean[k] as f32), std::array::from_fn(|k| std[k] as f32));
-        if self.decoder.out() == 6 {
-            return crate::model::split_response(&out, std, mean, &host.support, &host.mass_share);
-        }
         out.chunks_exact(3)
             .map(|a| {
                 let v: [f32; 3] = std::array::from_fn(|k| a[k] * std[k] + mean[k]);
@@ -544,8 +540,6 @@ mod tests {
         check(ModelConfig::small_cpu(), &scene, false);
         check(ModelConfig::small_cpu().with_layer_norm(false).with_blocks(2), &scene, true);
         check(ModelConfig::small_cpu().with_coarse_levels(2).with_blocks(5), &scene, true);
-        check(ModelConfig::small_cpu().with_conserve_momentum(true), &scene, true);
-        check(ModelConfig::small_cpu().with_conserve_momentum(true), &scene, false);
     }
 
     #[test]

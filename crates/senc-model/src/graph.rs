@@ -250,14 +250,6 @@ pub struct GraphInputs {
     pub nodes: Vec<f64>,
     /// Edge sets indexed by [`EdgeType::index`]: mesh, body, self, then one per coarse level.
     pub edges: Vec<EdgeSet>,
-    /// Per cloth vertex: whether something outside the garment can push it, so that the
-    /// garment's net force may act there (see [`crate::ModelConfig::conserve_momentum`]):
-    /// it has a body edge (the body within [`GraphConfig::body_radius`]) or a pinned mesh
-    /// neighbour. Pinned vertices themselves: false (their positions are prescribed).
-    pub support: Vec<bool>,
-    /// Per cloth vertex: its mass, kg (`m_i` of the node features), 0 on pinned vertices:
-    /// the weights over which the internal forces sum to zero.
-    pub free_mass: Vec<f64>,
 }
 
 impl GraphInputs {
@@ -333,26 +325,7 @@ impl GraphInputs {
             }
             timings.mesh += t0.elapsed().as_secs_f64();
         }
-        let is_pinned = |i: usize| frame.pinned.binary_search(&i).is_ok();
-        let mut support = vec![false; n_cloth];
-        for &r in &edges[EdgeType::Body.index()].receivers {
-            if let Some(s) = support.get_mut(r as usize) {
-                *s = true;
-            }
-        }
-        if !frame.pinned.is_empty() {
-            for &[a, b] in frame.rest.topology().edges() {
-                let (a, b) = (a as usize, b as usize);
-                support[a] |= is_pinned(b);
-                support[b] |= is_pinned(a);
-            }
-        }
-        let mut free_mass = vertex_masses(frame.rest, frame.material.density);
-        for &i in frame.pinned.iter().filter(|&&i| i < n_cloth) {
-            support[i] = false;
-            free_mass[i] = 0.0;
-        }
-        Ok((Self { n_cloth, n_body, nodes, edges, support, free_mass }, timings))
+        Ok((Self { n_cloth, n_body, nodes, edges }, timings))
     }
 
     /// Total node count.

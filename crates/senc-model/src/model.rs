@@ -98,17 +98,10 @@ impl Model {
 
     /// [`Model::forward`] on an already uploaded graph. `[n_cloth, 3]`.
     pub fn forward_tensors(&self, g: &GraphTensors) -> Tensor<2> {
-        let out = self.network.forward(g); // [n_cloth, 3 or 6], normalised
+        let out = self.network.forward(g); // [n_cloth, 3], normalised
         let mean = f32_tensor(&self.normalizers.output.mean(), [1, 3], &self.device);
         let std = f32_tensor(&self.normalizers.output.std(), [1, 3], &self.device);
-        if !self.config.conserve_momentum {
-            return out * std + mean;
-        }
-        // See `split_response`.
-        let internal = out.clone().narrow(1, 0, 3) * std.clone(); // [n_cloth, 3]
-        let support = out.narrow(1, 3, 3) * std + mean; // [n_cloth, 3]
-        let net = (internal.clone() * g.mass_share.clone()).sum_dim(0); // [1, 3]
-        internal - net + support * g.support.clone()
+        out * std + mean
     }
 
     /// The known part of the next positions, `2 x[t] − x[t−1] + Δt² (g + a_ext)`: free flight
@@ -164,47 +157,6 @@ impl Model {
         let dt2 = frame.dt * frame.dt;
         Self::free_flight(frame).into_iter().zip(accel).map(|(b, a)| b + a * dt2).collect()
     }
-}
-
-/// The response accelerations from a decoder output of six normalised columns per cloth
-/// vertex ([`crate::ModelConfig::conserve_momentum`]), on the host (the burn path in
-/// [`Model::forward_tensors`] computes the same).
-///
-/// With `u` the first three columns and `s` the last three, de-normalised by the output
-/// normaliser's std `σ` and mean `μ`:
-///
-/// `a_i = σu_i − Σ_j w_j σu_j + [i supported] (σs_i + μ)`, with `w_j = m_j / Σ m` over the
-/// unpinned vertices (`mass_share`).
-///
-/// The first part is the internal force per unit mass: `Σ_j m_j (σu_j − Σ_k w_k σu_k) = 0`
-/// over the unpinned vertices, whatever `u`, as the stretching, bending and self-contact
-/// forces of a garment sum to zero. The second acts only where something outside the
-/// garment can push it (`support`: a body edge or a pinned neighbour), so the garment's net
-/// force beyond gravity and the external force, `Σ m_i a_i`, comes from contact and pins
-/// alone. The output normaliser's mean (about the support against gravity) enters only
-/// there: with a zero decoder, vertices away from the body fall freely.
-pub fn split_response(out: &[f32], std: [f32; 3], mean: [f32; 3], support: &[bool], mass_share: &[f32]) -> Vec<Vec3> {
-    let rows: Vec<&[f32]> = out.chunks_exact(6).collect();
-    let mut net = [0.0f32; 3];
-    for (r, &w) in rows.iter().zip(mass_share) {
-        for k in 0..3 {
-            net[k] += r[k] * std[k] * w;
-        }
-    }
-    rows.iter()
-        .zip(support)
-        .map(|(r, &s)| {
-            let v: [f32; 3] = std::array::from_fn(|k| {
-                let internal = r[k] * std[k] - net[k];
-                if s {
-                    internal + (r[3 + k] * std[k] + mean[k])
-                } else {
-                    internal
-                }
-            });
-            Vec3::new(v[0].into(), v[1].into(), v[2].into())
-        })
-        .collect()
 }
 
 /// How a model runs inference in rollouts: the fused host path ([`FusedNetwork`]) when the

@@ -38,14 +38,6 @@ pub struct ModelConfig {
     /// block is on level 0 ([`ModelConfig::block_levels`]).
     #[config(default = 0)]
     pub coarse_levels: usize,
-    /// Split the response into internal forces, which sum to zero over the garment, and
-    /// support forces, which act only where something outside the garment can push it (a
-    /// body edge or a pinned neighbour): the decoder gives six columns per vertex, and
-    /// [`crate::Model::forward`] combines them (see [`crate::model::split_response`]). A
-    /// garment away from the body then has no net force but gravity and the external force,
-    /// whatever the weights, as in physics. HOOD: no (one free acceleration per vertex).
-    #[config(default = false)]
-    pub conserve_momentum: bool,
 }
 
 impl ModelConfig {
@@ -58,16 +50,6 @@ impl ModelConfig {
     /// layer, LayerNorm.
     pub fn small_cpu() -> Self {
         Self::new().with_latent(32).with_blocks(4).with_hidden_layers(1)
-    }
-
-    /// Columns of the decoder's output: 3, or 6 with [`ModelConfig::conserve_momentum`]
-    /// (internal, then support).
-    pub fn decoder_width(&self) -> usize {
-        if self.conserve_momentum {
-            6
-        } else {
-            3
-        }
     }
 
     /// The level each block passes messages on: level 0 uses the mesh, body and
@@ -121,7 +103,7 @@ impl ModelConfig {
                     }
                 })
                 .collect(),
-            decoder: Mlp::new(&[l], l, self.decoder_width(), self, false, device),
+            decoder: Mlp::new(&[l], l, 3, self, false, device),
         }
     }
 }
@@ -263,8 +245,7 @@ impl Network {
     /// - `g.edges[t].features`: `[E_t, EDGE_FEATURES]`, senders / receivers `[E_t]`; the
     ///   graph must have been uploaded with this model's normalisers (one per edge type)
     /// - latent node state `h`: `[N, L]`; latent edge state `e_t`: `[E_t, L]`
-    /// - output: `[n_cloth, 3]` (`[n_cloth, 6]` with [`ModelConfig::conserve_momentum`]),
-    ///   normalised (de-normalise with the output normaliser)
+    /// - output: `[n_cloth, 3]`, normalised (de-normalise with the output normaliser)
     ///
     /// Per block and edge type of its level present: `e_t ← e_t + MLP_t([e_t, h_r, h_s])`;
     /// then `h ← h + MLP_node([h, Σ_r e_mesh, Σ_r e_body, Σ_r e_self])` (level 0) or
@@ -302,7 +283,7 @@ impl Network {
             }
             h = h + block.node.finish(node_pre); // [N, L]
         }
-        self.decoder.forward(h.narrow(0, 0, g.n_cloth)) // [n_cloth, 3 or 6]
+        self.decoder.forward(h.narrow(0, 0, g.n_cloth)) // [n_cloth, 3]
     }
 }
 

@@ -277,9 +277,6 @@ struct ModelTable {
     /// force per unit mass): whether a vertex is held up by its neighbours, which the edge
     /// lengths show only as tiny strains. HOOD: no. Default true.
     elastic_features: bool,
-    /// Internal forces that sum to zero plus support forces only where the body or a pin
-    /// can push ([`ModelConfig::conserve_momentum`]). HOOD: no. Default false.
-    conserve_momentum: bool,
 }
 
 impl Default for ModelTable {
@@ -295,7 +292,6 @@ impl Default for ModelTable {
             body_radius: 0.03,
             zero_init_output: true,
             elastic_features: true,
-            conserve_momentum: false,
         }
     }
 }
@@ -307,8 +303,7 @@ impl From<ModelTable> for ModelSection {
             .with_blocks(t.blocks)
             .with_hidden_layers(t.hidden_layers)
             .with_layer_norm(t.layer_norm)
-            .with_coarse_levels(t.coarse_levels)
-            .with_conserve_momentum(t.conserve_momentum);
+            .with_coarse_levels(t.coarse_levels);
         let graph = GraphConfig {
             self_radius: t.self_radius,
             body_radius: t.body_radius,
@@ -333,7 +328,6 @@ impl From<ModelSection> for ModelTable {
             body_radius: m.graph.body_radius,
             zero_init_output: m.zero_init_output,
             elastic_features: m.graph.elastic_features,
-            conserve_momentum: m.network.conserve_momentum,
         }
     }
 }
