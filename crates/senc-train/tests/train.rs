@@ -558,16 +558,19 @@ fn method_cfg(garment: &str) -> RunConfig {
 /// The networks committed in `checkpoints/` still load with the current code and give the
 /// rollout they gave when they were committed: mean cloth displacement from the start after
 /// three frames of the first test motion, to 1 mm (the values recorded when they were
-/// committed). Each checkpoint is self-contained: its `config.toml` is the resolved
-/// training config, with paths relative to the checkpoint. A change to the checkpoint format, the features, the graph or the network that silently changes what a
-/// trained checkpoint computes fails here; retrain the checkpoints (`checkpoints/README.md`)
-/// and update the values then.
+/// committed). Each checkpoint's `config.toml` is the resolved training config, with paths
+/// relative to the checkpoint; all are self-contained but `all`, whose scenes are the five
+/// garment configs. A change to the checkpoint format, the features, the graph or the
+/// network that silently changes what a trained checkpoint computes fails here; retrain the
+/// checkpoints (`checkpoints/README.md`) and update the values then.
 #[test]
 fn committed_checkpoints_load_and_give_their_recorded_rollout() {
     use senc_train::garment::Garment;
     use senc_train::rollout::rollout;
     use senc_train::trainer::scene_material;
+    const MANY_GARMENTS: [&str; 5] = ["tshirt", "skirt", "longsleeve", "pants", "dress"];
     let expected: &[(&str, [f64; 3])] = &[
+        ("all", [0.006947, 0.000824, -0.003342]),
         ("skirt", [-0.00429, 0.000478, -0.00246]),
         ("skirt-baseline", [0.002254, -0.001671, -0.007473]),
         ("tshirt", [0.00255, 0.002384, -0.007838]),
@@ -586,10 +589,17 @@ fn committed_checkpoints_load_and_give_their_recorded_rollout() {
     for (name, want) in expected {
         let dir = root().join("checkpoints").join(name);
         let cfg = training_config(&dir).unwrap_or_else(|e| panic!("{name}: {e}"));
-        assert_eq!(cfg.scene_files(), vec![dir.join("config.toml")], "{name} is not self-contained");
+        let scenes: Vec<_> = cfg.scene_files().iter().map(|p| p.canonicalize().unwrap()).collect();
+        // The many-garment network trains on the five garment configs; every other
+        // checkpoint is self-contained.
+        let (own, garments) = match *name {
+            "all" => (MANY_GARMENTS.iter().map(|g| root().join(format!("configs/{g}.toml"))).collect(), ", 5 garments"),
+            _ => (vec![dir.join("config.toml")], ""),
+        };
+        assert_eq!(scenes, own.iter().map(|p| p.canonicalize().unwrap()).collect::<Vec<_>>(), "{name}");
         let method = if name.contains("baseline") { "baseline" } else { "SENC" };
         let seed = if name.ends_with("seed1") { ", seed 1" } else { "" };
-        assert_eq!(cfg.method_name(), format!("{method}{seed}"), "{name}");
+        assert_eq!(cfg.method_name(), format!("{method}{garments}{seed}"), "{name}");
         let g = Garment::load(&first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
         let model = Model::load(&dir, &Device::flex()).unwrap();
         let material = scene_material(&g).unwrap();
