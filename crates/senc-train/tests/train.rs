@@ -571,6 +571,7 @@ fn committed_checkpoints_load_and_give_their_recorded_rollout() {
     const MANY_GARMENTS: [&str; 5] = ["tshirt", "skirt", "longsleeve", "pants", "dress"];
     let expected: &[(&str, [f64; 3])] = &[
         ("all", [0.006947, 0.000824, -0.003342]),
+        ("dress", [0.000905, -0.005648, -0.000063]),
         ("skirt", [-0.00429, 0.000478, -0.00246]),
         ("skirt-baseline", [0.002254, -0.001671, -0.007473]),
         ("tshirt", [0.00255, 0.002384, -0.007838]),
