@@ -8,7 +8,7 @@
 //!
 //! | columns | meaning | unit |
 //! |---|---|---|
-//! | 0..3 | velocity per frame: cloth `x[t] − x[t−1]`, body `b[t+1] − b[t]` | m / frame |
+//! | 0..3 | velocity per frame: cloth `x[t] − x[t−1]`, body `b[t+1] − b[t]`; with [`GraphConfig::comoving`] both minus the body's mean velocity `u` (below) | m / frame |
 //! | 3, 4 | vertex type one-hot: free cloth `[1, 0]`; body and pinned cloth `[0, 1]` | – |
 //! | 5..8 | unit area-weighted vertex normal (cloth at `t`, body at `t+1`) | – |
 //! | 8 | `ln μ` (Lamé μ, HOOD's units); 0 for body | – |
@@ -35,6 +35,19 @@
 //!
 //! All features are differences of positions, so translating the scene leaves them unchanged;
 //! renumbering the vertices permutes nodes and edges alike.
+//!
+//! # The body's frame
+//! With [`GraphConfig::comoving`] the features are also unchanged by a uniform motion of the
+//! whole scene (a Galilean boost), like the physics they stand for: the inertia, elastic and
+//! contact energies of `x[t+1]` depend on velocities only through differences, and the
+//! acceleration the network predicts is the same in every frame moving at constant velocity.
+//! The reference is the body's mean velocity over the coming step, `u = mean_j (b[t+1] −
+//! b[t])` (zero without a body). It is subtracted from every velocity column, and the body
+//! edges' `t+1` half compares the cloth with `b[t+1] − u`, where the body will be relative to
+//! a frame that moves with it. A boost by `w` per frame shifts `u` by `w`, so every feature is
+//! invariant. A garment carried along by a walking body then looks to the network as it
+//! does on a body walking in place, instead of moving many standard deviations faster than
+//! anything the training clips showed.
 
 use std::time::Instant;
 
@@ -138,6 +151,10 @@ pub struct GraphConfig {
     /// 15..18). Absent from older checkpoints, which read as false.
     #[serde(default)]
     pub elastic_features: bool,
+    /// Whether velocities are measured in the body's frame (module docs, "The body's frame").
+    /// Absent from older checkpoints, which read as false (world velocities).
+    #[serde(default)]
+    pub comoving: bool,
 }
 
 impl GraphConfig {
@@ -155,6 +172,7 @@ impl Default for GraphConfig {
             self_edges: SelfEdges::ExcludeMesh,
             coarse_levels: 0,
             elastic_features: false,
+            comoving: false,
         }
     }
 }
@@ -266,7 +284,8 @@ impl GraphInputs {
         let n_body = frame.body.map_or(0, |b| b.curr.len());
 
         let t0 = Instant::now();
-        let nodes = node_features(frame, config.elastic_features)?;
+        let u = if config.comoving { body_velocity(frame) } else { Vec3::zeros() };
+        let nodes = node_features(frame, config.elastic_features, u)?;
         timings.nodes = t0.elapsed().as_secs_f64();
 
         let t0 = Instant::now();
@@ -288,8 +307,9 @@ impl GraphInputs {
                     let (c, b) = (i as u32, (n_cloth + j as usize) as u32);
                     let ju = j as usize;
                     // cloth → body: sender cloth, receiver body.
-                    body_edges.push(c, b, pair_features(x[i] - body.curr[ju], x[i] - body.next[ju]));
-                    body_edges.push(b, c, pair_features(body.curr[ju] - x[i], body.next[ju] - x[i]));
+                    let next = body.next[ju] - u;
+                    body_edges.push(c, b, pair_features(x[i] - body.curr[ju], x[i] - next));
+                    body_edges.push(b, c, pair_features(body.curr[ju] - x[i], next - x[i]));
                 }
             }
         }
@@ -539,7 +559,18 @@ pub fn vertex_masses(rest: &TriMesh, density: f64) -> Vec<f64> {
     m
 }
 
-fn node_features(frame: &FrameState<'_>, elastic: bool) -> Result<Vec<f64>, ModelError> {
+/// The body's mean velocity over the coming step, `mean_j (b[t+1] − b[t])`, m per frame
+/// (zero without a body): the reference of [`GraphConfig::comoving`].
+fn body_velocity(frame: &FrameState<'_>) -> Vec3 {
+    match frame.body {
+        Some(b) if !b.curr.is_empty() => {
+            b.next.iter().zip(b.curr).fold(Vec3::zeros(), |s, (n, c)| s + (n - c)) / b.curr.len() as f64
+        }
+        _ => Vec3::zeros(),
+    }
+}
+
+fn node_features(frame: &FrameState<'_>, elastic: bool, u: Vec3) -> Result<Vec<f64>, ModelError> {
     let n_cloth = frame.rest.n_vertices();
     let n_body = frame.body.map_or(0, |b| b.curr.len());
     let mut out = Vec::with_capacity((n_cloth + n_body) * (NODE_FEATURES + ELASTIC_FEATURES));
@@ -550,7 +581,7 @@ fn node_features(frame: &FrameState<'_>, elastic: bool) -> Result<Vec<f64>, Mode
     let elastic_acc = if elastic { elastic_accelerations(frame)? } else { Vec::new() };
     for i in 0..n_cloth {
         let kinematic = frame.pinned.binary_search(&i).is_ok();
-        let v = frame.curr[i] - frame.prev[i];
+        let v = frame.curr[i] - frame.prev[i] - u;
         let n = normals[i];
         // An isolated vertex has no mass; clamp so that the log stays finite.
         let log_m = masses[i].max(1e-12).ln();
@@ -578,7 +609,7 @@ fn node_features(frame: &FrameState<'_>, elastic: bool) -> Result<Vec<f64>, Mode
     if let Some(body) = frame.body {
         let normals = vertex_normals(body.next, body.faces);
         for j in 0..n_body {
-            let v = body.next[j] - body.curr[j];
+            let v = body.next[j] - body.curr[j] - u;
             let n = normals[j];
             out.extend_from_slice(&[v.x, v.y, v.z, 0.0, 1.0, n.x, n.y, n.z, 0.0, 0.0, 0.0, 0.0, g.x, g.y, g.z]);
             if elastic {

@@ -194,6 +194,46 @@ fn translation_invariance() {
     assert!(diff <= 1e-5 * max_abs(&base), "translated output differs by {diff}");
 }
 
+/// A uniform motion of the whole scene by `w` per frame (cloth at `t−1`, `t` and body at `t`,
+/// `t+1` each moved on by one more `w`) leaves every feature, so the accelerations, unchanged
+/// in the body's frame (`comoving`), and changes the world-frame velocities.
+#[test]
+fn comoving_features_are_galilean_invariant() {
+    let s = scene();
+    let w = Vec3::new(0.04, -0.01, 0.03);
+    let boost = |v: &[Vec3], k: f64| v.iter().map(|p| p + w * k).collect::<Vec<_>>();
+    let (prev, curr, bc, bn) =
+        (boost(&s.prev, 0.0), boost(&s.curr, 1.0), boost(&s.body_curr, 1.0), boost(&s.body_next, 2.0));
+    let mut frame = s.frame();
+    frame.prev = &prev;
+    frame.curr = &curr;
+    let body = frame.body.as_mut().unwrap();
+    body.curr = &bc;
+    body.next = &bn;
+    // Largest difference relative to the feature's size (the elastic columns are large
+    // sums of forces, exact only to rounding).
+    let rel = |x: &f64, y: &f64| (x - y).abs() / x.abs().max(1.0);
+    let worst = |a: &GraphInputs, b: &GraphInputs| {
+        let mut d = a.nodes.iter().zip(&b.nodes).map(|(x, y)| rel(x, y)).fold(0.0, f64::max);
+        for (ea, eb) in a.edges.iter().zip(&b.edges) {
+            assert_eq!(ea.senders, eb.senders);
+            d = ea.features.iter().zip(&eb.features).map(|(x, y)| rel(x, y)).fold(d, f64::max);
+        }
+        d
+    };
+    let comoving = GraphConfig { comoving: true, elastic_features: true, ..GraphConfig::default() };
+    let (a, b) = (GraphInputs::build(&s.frame(), &comoving).unwrap(), GraphInputs::build(&frame, &comoving).unwrap());
+    assert!(a.n_body > 0 && !a.edges[EdgeType::Body.index()].senders.is_empty(), "no body edges");
+    assert!(worst(&a, &b) < 1e-9, "boosted features differ by {}", worst(&a, &b));
+    // The body nodes' velocities average to zero in their own frame.
+    let f = comoving.node_features();
+    let mean_vx: f64 = (a.n_cloth..a.n_cloth + a.n_body).map(|i| a.nodes[i * f]).sum::<f64>() / a.n_body as f64;
+    assert!(mean_vx.abs() < 1e-12, "body mean velocity {mean_vx}");
+    let world = GraphConfig { elastic_features: true, ..GraphConfig::default() };
+    let (a, b) = (GraphInputs::build(&s.frame(), &world).unwrap(), GraphInputs::build(&frame, &world).unwrap());
+    assert!(worst(&a, &b) > 0.5 * w.norm(), "world-frame velocities should see the boost");
+}
+
 #[test]
 fn save_then_load_gives_the_same_output_bit_for_bit() {
     let s = scene();

@@ -277,6 +277,10 @@ struct ModelTable {
     /// force per unit mass): whether a vertex is held up by its neighbours, which the edge
     /// lengths show only as tiny strains. HOOD: no. Default true.
     elastic_features: bool,
+    /// Measure velocities in the body's frame (its mean velocity subtracted; see
+    /// `senc_model::GraphConfig::comoving`), so that a garment carried by a walking body
+    /// looks as it does on a body moving in place. HOOD: no. Default true.
+    comoving: bool,
 }
 
 impl Default for ModelTable {
@@ -292,6 +296,7 @@ impl Default for ModelTable {
             body_radius: 0.03,
             zero_init_output: true,
             elastic_features: true,
+            comoving: true,
         }
     }
 }
@@ -310,6 +315,7 @@ impl From<ModelTable> for ModelSection {
             self_edges: t.self_edges,
             coarse_levels: t.coarse_levels,
             elastic_features: t.elastic_features,
+            comoving: t.comoving,
         };
         Self { network, graph, zero_init_output: t.zero_init_output }
     }
@@ -328,6 +334,7 @@ impl From<ModelSection> for ModelTable {
             body_radius: m.graph.body_radius,
             zero_init_output: m.zero_init_output,
             elastic_features: m.graph.elastic_features,
+            comoving: m.graph.comoving,
         }
     }
 }
