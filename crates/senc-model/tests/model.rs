@@ -173,6 +173,23 @@ fn permutation_equivariance() {
     assert!(diff <= 1e-5 * max_abs(&base), "permuted output differs by {diff}");
 }
 
+/// The scene's frame with other cloth states (`t−1`, `t`) and body states (`t`, `t+1`).
+fn frame_with<'a>(
+    s: &'a SyntheticScene,
+    prev: &'a [Vec3],
+    curr: &'a [Vec3],
+    body_curr: &'a [Vec3],
+    body_next: &'a [Vec3],
+) -> FrameState<'a> {
+    let mut frame = s.frame();
+    frame.prev = prev;
+    frame.curr = curr;
+    let body = frame.body.as_mut().unwrap();
+    body.curr = body_curr;
+    body.next = body_next;
+    frame
+}
+
 /// Translating cloth and body together leaves the accelerations unchanged.
 #[test]
 fn translation_invariance() {
@@ -183,12 +200,7 @@ fn translation_invariance() {
     let shift = Vec3::new(0.37, -1.25, 2.5);
     let mv = |v: &[Vec3]| v.iter().map(|p| p + shift).collect::<Vec<_>>();
     let (prev, curr, bc, bn) = (mv(&s.prev), mv(&s.curr), mv(&s.body_curr), mv(&s.body_next));
-    let mut frame = s.frame();
-    frame.prev = &prev;
-    frame.curr = &curr;
-    let body = frame.body.as_mut().unwrap();
-    body.curr = &bc;
-    body.next = &bn;
+    let frame = frame_with(&s, &prev, &curr, &bc, &bn);
     let moved = tensor_to_vec3(model.forward(&model.build_graph(&frame).unwrap())).unwrap();
     let diff = max_abs_diff(&moved, &base);
     assert!(diff <= 1e-5 * max_abs(&base), "translated output differs by {diff}");
@@ -204,12 +216,7 @@ fn comoving_features_are_galilean_invariant() {
     let boost = |v: &[Vec3], k: f64| v.iter().map(|p| p + w * k).collect::<Vec<_>>();
     let (prev, curr, bc, bn) =
         (boost(&s.prev, 0.0), boost(&s.curr, 1.0), boost(&s.body_curr, 1.0), boost(&s.body_next, 2.0));
-    let mut frame = s.frame();
-    frame.prev = &prev;
-    frame.curr = &curr;
-    let body = frame.body.as_mut().unwrap();
-    body.curr = &bc;
-    body.next = &bn;
+    let frame = frame_with(&s, &prev, &curr, &bc, &bn);
     // Largest difference relative to the feature's size (the elastic columns are large
     // sums of forces, exact only to rounding).
     let rel = |x: &f64, y: &f64| (x - y).abs() / x.abs().max(1.0);
