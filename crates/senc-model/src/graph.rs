@@ -46,8 +46,7 @@
 //! edges' `t+1` half compares the cloth with `b[t+1] − u`, where the body will be relative to
 //! a frame that moves with it. A boost by `w` per frame shifts `u` by `w`, so every feature is
 //! invariant. A garment carried along by a walking body then looks to the network as it
-//! does on a body walking in place, instead of moving many standard deviations faster than
-//! anything the training clips showed.
+//! does on a body walking in place.
 
 use std::time::Instant;
 
