@@ -168,6 +168,18 @@ pub struct TrainConfig {
     pub signal_cg_iterations: usize,
     /// Relative residual at which the Newton signal's PCG stops. Default 1e-4.
     pub signal_cg_tolerance: f64,
+    /// Every this many phase-2 iterations the network is rolled out alone on the training
+    /// motions (`select_frames` frames of each, from the skinned garment at frame 0, the
+    /// scene's material, no external force) and scored by its mean distance from the
+    /// skinned garment over all frames; `OUT/phase2` holds the best-scoring network
+    /// (`OUT/best` while training; scores in `OUT/selection.csv`; `OUT/latest` keeps the
+    /// last one). One-step losses do not
+    /// show how far a network drifts when its steps compound, and networks of one run
+    /// differ widely in that. The test motions are never used. Default 0: the last
+    /// network.
+    pub select_every: u64,
+    /// Frames of each selection rollout. Default 60.
+    pub select_frames: usize,
 }
 
 impl Default for TrainConfig {
@@ -203,6 +215,8 @@ impl Default for TrainConfig {
             newton_weight: 0.0,
             signal_cg_iterations: 20,
             signal_cg_tolerance: 1e-4,
+            select_every: 0,
+            select_frames: 60,
         }
     }
 }
@@ -539,6 +553,9 @@ impl RunConfig {
         }
         if !(t.newton_weight.is_finite() && t.newton_weight >= 0.0) {
             return bad(format!("[train] newton_weight = {} must be finite and >= 0", t.newton_weight));
+        }
+        if t.select_every > 0 && t.select_frames == 0 {
+            return bad("[train] select_frames must be >= 1 when select_every > 0".into());
         }
         if !(0.0..=1.0).contains(&t.pool_share) {
             return bad(format!("[train] pool_share = {} must be in [0, 1] (0: off)", t.pool_share));

@@ -237,6 +237,58 @@ fn visited_state_pool_and_newton_signal_resume_exactly() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// `[train] select_every`: phase 2's network is scored by a rollout on the training motion
+/// every 2 iterations; `OUT/phase2` is the best-scoring one (its score recomputed from the
+/// saved weights), `selection.csv` has one row per selection, and a killed run resumes to
+/// the same choice.
+#[test]
+fn phase2_keeps_the_network_whose_rollout_strays_least() {
+    let d = tmp("select");
+    let cfg = tiny_config(&d);
+    let text =
+        std::fs::read_to_string(&cfg).unwrap().replace("[train]\n", "[train]\nselect_every = 2\nselect_frames = 5\n");
+    std::fs::write(&cfg, text).unwrap();
+    let a = d.join("a");
+    let mut t = Trainer::new(&cfg, &a).unwrap();
+    t.run(None, |_| {}).unwrap();
+    assert!(t.finished());
+    let csv = std::fs::read_to_string(a.join(senc_train::trainer::SELECTION_FILE)).unwrap();
+    let rows: Vec<(u64, f64)> = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f[0].parse().unwrap(), f[1].parse().unwrap())
+        })
+        .collect();
+    assert_eq!(rows.iter().map(|r| r.0).collect::<Vec<_>>(), [2, 4], "{csv}");
+    assert!(rows.iter().all(|r| r.1.is_finite() && r.1 > 0.0), "{csv}");
+    let (k, best) = t.progress.best.expect("a finite score was seen");
+    let min = rows.iter().map(|r| r.1).fold(f64::INFINITY, f64::min);
+    assert!((best - min).abs() < 1e-3, "best {best} is the smallest score {min}");
+    assert!(rows.iter().any(|r| r.0 == k));
+    assert_eq!(params(&a.join("phase2")), params(&a.join("best")), "phase2/ holds the best network");
+    let last = params(&a.join("latest"));
+    if k == 4 {
+        assert_eq!(last, params(&a.join("phase2")));
+    } else {
+        assert_ne!(last, params(&a.join("phase2")), "latest/ keeps the last network, not the best");
+    }
+    // The trainer's model is now the best network: its score is the best one again.
+    assert!((t.selection_score().unwrap() - best).abs() < 1e-3);
+    drop(t);
+    // Killed in phase 2 after the first selection, resumed: the same rows and choice.
+    let b = d.join("b");
+    let mut t = Trainer::new(&cfg, &b).unwrap();
+    t.run(Some(6 + 3), |_| {}).unwrap();
+    drop(t);
+    let mut t = Trainer::resume(&b).unwrap();
+    t.run(None, |_| {}).unwrap();
+    assert_eq!(std::fs::read_to_string(b.join(senc_train::trainer::SELECTION_FILE)).unwrap(), csv);
+    assert_eq!(params(&a.join("phase2")), params(&b.join("phase2")));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// A finished run whose saved config asks for more phase-2 iterations continues on
 /// `resume` from where it stopped; with the same count it stays finished.
 #[test]

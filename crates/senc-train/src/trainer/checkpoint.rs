@@ -17,6 +17,8 @@ pub const LATEST: &str = "latest";
 pub const OPTIM_FILE: &str = "optim.bpk";
 /// The trainer's progress inside a checkpoint directory.
 pub const PROGRESS_FILE: &str = "trainer.msgpack";
+/// The best-scoring phase-2 network so far (`[train] select_every`).
+pub const BEST: &str = "best";
 /// The config text inside a checkpoint directory.
 pub const CONFIG_FILE: &str = "config.toml";
 
@@ -48,6 +50,10 @@ pub struct Progress {
     /// Where the next pooled state goes once the pool is full.
     #[serde(default)]
     pub pool_next: usize,
+    /// The best selection score so far in phase 2 and its iteration (`[train]
+    /// select_every`); the network is in `OUT/best`.
+    #[serde(default)]
+    pub best: Option<(u64, f64)>,
 }
 
 /// Writes a directory atomically: filled under a temporary name, then renamed into place.

@@ -22,6 +22,10 @@
 //! state and all energies of `[energy]`. A step whose energy, energy gradient or parameter
 //! gradient is not finite is skipped (no optimiser step), counted, and ends its sequence.
 //!
+//! With `[train] select_every`, phase 2's network is rolled out alone on the training
+//! motions every so many iterations and the best-scoring one becomes `OUT/phase2`
+//! (`select`).
+//!
 //! Checkpoints (`OUT/latest`, then `OUT/phase1`, `OUT/phase2` at the end of each phase) are
 //! directories written under a temporary name and renamed into place; they hold the model
 //! (weights, sizes, graph config, normalisers), Adam's state (`optim.bpk`), the trainer's
@@ -31,6 +35,7 @@
 mod checkpoint;
 mod log;
 mod sampling;
+mod select;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -43,9 +48,10 @@ use senc_model::burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer, Opti
 use senc_model::burn::tensor::Device;
 use senc_model::{GraphInputs, Model};
 
-pub use checkpoint::{Progress, CONFIG_FILE, LATEST, OPTIM_FILE, PROGRESS_FILE};
+pub use checkpoint::{Progress, BEST, CONFIG_FILE, LATEST, OPTIM_FILE, PROGRESS_FILE};
 pub use log::{StepReport, CSV_FILE};
 pub use sampling::{material_from_config, scene_material, Sequence};
+pub use select::SELECTION_FILE;
 
 use crate::config::{Phase, RunConfig};
 use crate::error::TrainError;
@@ -396,6 +402,10 @@ impl Trainer {
         }
         let r = self.train_step()?;
         log::append(&self.out.join(CSV_FILE), &r)?;
+        let every = self.config.train.select_every;
+        if self.progress.phase == Phase::Two && every > 0 && self.progress.iteration % every == 0 {
+            self.select()?;
+        }
         if self.progress.iteration % self.config.train.checkpoint_every == 0 {
             self.checkpoint(&self.out.join(LATEST))?;
         }
@@ -416,12 +426,20 @@ impl Trainer {
             self.energy_cache = None;
             self.checkpoint(&dir)?;
             tracing::info!(dir = %dir.display(), skipped = self.progress.skipped[0], "phase 1 done");
+            self.checkpoint(&self.out.join(LATEST))
         } else {
             self.progress.finished = true;
+            // OUT/latest keeps the last network (a run extended later continues from it);
+            // OUT/phase2 is the best-scoring one where networks were selected.
+            self.checkpoint(&self.out.join(LATEST))?;
+            if let Some((k, score)) = self.progress.best {
+                self.model = Model::load(&self.out.join(BEST), &self.model.device)?;
+                tracing::info!(iteration = k, score_cm = score, "phase 2 keeps the best-scoring network");
+            }
             self.checkpoint(&dir)?;
             tracing::info!(dir = %dir.display(), skipped = self.progress.skipped[1], "phase 2 done");
+            Ok(())
         }
-        self.checkpoint(&self.out.join(LATEST))
     }
 
     /// Runs to the end (or until `stop_after` training iterations in total, counting both
