@@ -187,6 +187,16 @@ impl Garment {
         Ok(self.scene.garment_skinned_at(motion, frame)?)
     }
 
+    /// Mean over frames `1..` of a rollout `cloth` of `motion` (frame 0 the start) of the mean
+    /// vertex distance from the skinned garment, m: Table 1's and the stress cases' "from
+    /// skinned", and the selection score.
+    pub fn departure(&self, motion: &Motion, cloth: &[Vec<Vec3>]) -> Result<f64, TrainError> {
+        let d = (1..cloth.len())
+            .map(|f| Ok(crate::metrics::mean_distance(&cloth[f], &self.skinned_at(motion, f)?)))
+            .collect::<Result<Vec<f64>, TrainError>>()?;
+        Ok(crate::metrics::mean(&d))
+    }
+
     /// The proxy body's faces.
     pub fn body_faces(&self) -> &[[u32; 3]] {
         self.proxy_mesh.faces()

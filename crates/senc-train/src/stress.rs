@@ -171,7 +171,7 @@ fn measure(
 ) -> Result<StressRow, TrainError> {
     let em = g.energy_model(energy.clone(), g.scene.dt())?;
     let em_first = g.energy_model(energy.clone(), g.scene.config.first_step_dt)?;
-    let (mut energies, mut departure, mut speed) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut energies, mut speed) = (Vec::new(), Vec::new());
     for f in 1..r.cloth.len() {
         // The state each step started from, as the rollout saw it: at rest before the first
         // step (of `first_step_dt`), and its velocity rescaled to 1/fps after it.
@@ -182,7 +182,6 @@ fn measure(
         let em = if f == 1 { &em_first } else { &em };
         let fe = em.frame(&r.cloth[f - 1], &prev, Some((&r.body[f - 1], &r.body[f])))?;
         energies.push(fe.evaluate(&r.cloth[f], None)?.total);
-        departure.push(mean_distance(&r.cloth[f], &g.skinned_at(motion, f)?));
         speed.push(mean_distance(&r.cloth[f], &r.cloth[f - 1]));
     }
     let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
@@ -193,7 +192,7 @@ fn measure(
         error,
         energy_mean_j: mean(&energies),
         energy_max_j: max(&energies),
-        departure_cm: 100.0 * mean(&departure),
+        departure_cm: 100.0 * g.departure(motion, &r.cloth)?,
         max_speed_cm: 100.0 * max(&speed),
     })
 }

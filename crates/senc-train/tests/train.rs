@@ -289,6 +289,22 @@ fn phase2_keeps_the_network_whose_rollout_strays_least() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// Where `select_every` does not divide phase 2, the last network is scored too.
+#[test]
+fn the_last_network_is_scored_when_selection_does_not_divide_phase2() {
+    let d = tmp("select-last");
+    let cfg = tiny_config(&d);
+    let text =
+        std::fs::read_to_string(&cfg).unwrap().replace("[train]\n", "[train]\nselect_every = 3\nselect_frames = 3\n");
+    std::fs::write(&cfg, text).unwrap();
+    let mut t = Trainer::new(&cfg, &d.join("run")).unwrap();
+    t.run(None, |_| {}).unwrap();
+    let csv = std::fs::read_to_string(d.join("run").join(senc_train::trainer::SELECTION_FILE)).unwrap();
+    let its: Vec<&str> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
+    assert_eq!(its, ["3", "4"], "{csv}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// A finished run whose saved config asks for more phase-2 iterations continues on
 /// `resume` from where it stopped; with the same count it stays finished.
 #[test]

@@ -428,6 +428,10 @@ impl Trainer {
             tracing::info!(dir = %dir.display(), skipped = self.progress.skipped[0], "phase 1 done");
             self.checkpoint(&self.out.join(LATEST))
         } else {
+            let every = self.config.train.select_every;
+            if every > 0 && self.progress.iteration % every != 0 {
+                self.select()?;
+            }
             self.progress.finished = true;
             // OUT/latest keeps the last network (a run extended later continues from it);
             // OUT/phase2 is the best-scoring one where networks were selected.

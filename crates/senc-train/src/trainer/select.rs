@@ -6,7 +6,7 @@ use senc_geom::Vec3;
 use super::sampling::scene_material;
 use super::{Trainer, BEST};
 use crate::error::TrainError;
-use crate::metrics::{mean, mean_distance};
+use crate::metrics::mean;
 use crate::rollout::rollout;
 
 /// One row of `OUT/selection.csv`.
@@ -14,9 +14,9 @@ pub const SELECTION_FILE: &str = "selection.csv";
 
 impl Trainer {
     /// The selection score of the current network, cm: the mean over every garment and
-    /// training motion of the mean vertex distance from the skinned garment over frames
-    /// `0..=select_frames` of the network's rollout (frame 0 is the skinned start). A
-    /// rollout that diverges scores infinity.
+    /// training motion of [`Garment::departure`](crate::Garment::departure) over the
+    /// `select_frames` frames after the skinned start of the network's rollout. A rollout
+    /// that diverges scores infinity.
     pub fn selection_score(&self) -> Result<f64, TrainError> {
         let frames = self.config.train.select_frames;
         let model = self.model.valid();
@@ -29,13 +29,7 @@ impl Trainer {
                     Err(TrainError::Diverged { .. }) => return Ok(f64::INFINITY),
                     Err(e) => return Err(e),
                 };
-                let d: Vec<f64> = r
-                    .cloth
-                    .iter()
-                    .enumerate()
-                    .map(|(f, x)| Ok(mean_distance(x, &g.skinned_at(motion, f)?)))
-                    .collect::<Result<_, TrainError>>()?;
-                scores.push(100.0 * mean(&d));
+                scores.push(100.0 * g.departure(motion, &r.cloth)?);
             }
         }
         Ok(mean(&scores))
