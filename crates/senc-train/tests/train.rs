@@ -30,6 +30,14 @@ fn tiny_config(dir: &Path) -> PathBuf {
     p
 }
 
+/// [`tiny_config`] with `keys` (TOML lines) added to its `[train]` table.
+fn tiny_config_with(dir: &Path, keys: &str) -> PathBuf {
+    let cfg = tiny_config(dir);
+    let text = std::fs::read_to_string(&cfg).unwrap().replace("[train]\n", &format!("[train]\n{keys}"));
+    std::fs::write(&cfg, text).unwrap();
+    cfg
+}
+
 /// The flat parameter vector of the checkpoint in `dir`.
 fn params(dir: &Path) -> Vec<f64> {
     flat_params(&Model::load(dir, &Device::flex()).unwrap().network)
@@ -200,12 +208,10 @@ fn a_resolved_config_with_overrides_trains_and_travels_with_the_checkpoint() {
 #[test]
 fn visited_state_pool_and_newton_signal_resume_exactly() {
     let d = tmp("pool");
-    let cfg = tiny_config(&d);
-    let text = std::fs::read_to_string(&cfg).unwrap().replace(
-        "[train]\n",
-        "[train]\npool_share = 1.0\npool_every = 3\npool_frames = 4\npool_stride = 2\npool_size = 3\nnewton_weight = 30.0\n",
+    let cfg = tiny_config_with(
+        &d,
+        "pool_share = 1.0\npool_every = 3\npool_frames = 4\npool_stride = 2\npool_size = 3\nnewton_weight = 30.0\n",
     );
-    std::fs::write(&cfg, text).unwrap();
     let a = d.join("a");
     let mut t = Trainer::new(&cfg, &a).unwrap();
     let mut losses = Vec::new();
@@ -244,10 +250,7 @@ fn visited_state_pool_and_newton_signal_resume_exactly() {
 #[test]
 fn phase2_keeps_the_network_whose_rollout_strays_least() {
     let d = tmp("select");
-    let cfg = tiny_config(&d);
-    let text =
-        std::fs::read_to_string(&cfg).unwrap().replace("[train]\n", "[train]\nselect_every = 2\nselect_frames = 5\n");
-    std::fs::write(&cfg, text).unwrap();
+    let cfg = tiny_config_with(&d, "select_every = 2\nselect_frames = 5\n");
     let a = d.join("a");
     let mut t = Trainer::new(&cfg, &a).unwrap();
     t.run(None, |_| {}).unwrap();
@@ -293,10 +296,7 @@ fn phase2_keeps_the_network_whose_rollout_strays_least() {
 #[test]
 fn the_last_network_is_scored_when_selection_does_not_divide_phase2() {
     let d = tmp("select-last");
-    let cfg = tiny_config(&d);
-    let text =
-        std::fs::read_to_string(&cfg).unwrap().replace("[train]\n", "[train]\nselect_every = 3\nselect_frames = 3\n");
-    std::fs::write(&cfg, text).unwrap();
+    let cfg = tiny_config_with(&d, "select_every = 3\nselect_frames = 3\n");
     let mut t = Trainer::new(&cfg, &d.join("run")).unwrap();
     t.run(None, |_| {}).unwrap();
     let csv = std::fs::read_to_string(d.join("run").join(senc_train::trainer::SELECTION_FILE)).unwrap();
