@@ -256,17 +256,19 @@ fn phase2_keeps_the_network_whose_rollout_strays_least() {
     t.run(None, |_| {}).unwrap();
     assert!(t.finished());
     let csv = std::fs::read_to_string(a.join(senc_train::trainer::SELECTION_FILE)).unwrap();
-    let rows: Vec<(u64, f64)> = csv
+    let rows: Vec<(u64, f64, f64)> = csv
         .lines()
         .skip(1)
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
-            (f[0].parse().unwrap(), f[1].parse().unwrap())
+            (f[0].parse().unwrap(), f[1].parse().unwrap(), f[2].parse().unwrap())
         })
         .collect();
     assert_eq!(rows.iter().map(|r| r.0).collect::<Vec<_>>(), [2, 4], "{csv}");
-    assert!(rows.iter().all(|r| r.1.is_finite() && r.1 > 0.0), "{csv}");
+    assert!(rows.iter().all(|r| r.1.is_finite() && r.1 > 0.0 && r.2.is_finite() && r.2 >= 0.0), "{csv}");
     let (k, best) = t.progress.best.expect("a finite score was seen");
+    // The default cap on the volume (100 cm³) is far above what the tiny skirt reaches.
+    assert!(rows.iter().all(|r| r.2 < 100.0), "{csv}");
     let min = rows.iter().map(|r| r.1).fold(f64::INFINITY, f64::min);
     assert!((best - min).abs() < 1e-3, "best {best} is the smallest score {min}");
     assert!(rows.iter().any(|r| r.0 == k));
@@ -278,7 +280,10 @@ fn phase2_keeps_the_network_whose_rollout_strays_least() {
         assert_ne!(last, params(&a.join("phase2")), "latest/ keeps the last network, not the best");
     }
     // The trainer's model is now the best network: its score is the best one again.
-    assert!((t.selection_score().unwrap() - best).abs() < 1e-3);
+    let again = t.selection_score().unwrap();
+    assert!((again.departure_cm - best).abs() < 1e-3);
+    let row = rows.iter().find(|r| r.0 == k).unwrap();
+    assert!((again.volume_cm3 - row.2).abs() <= 1e-3 * (1.0 + row.2), "{again:?} against {row:?}");
     drop(t);
     // Killed in phase 2 after the first selection, resumed: the same rows and choice.
     let b = d.join("b");

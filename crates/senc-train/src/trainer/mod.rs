@@ -23,8 +23,8 @@
 //! gradient is not finite is skipped (no optimiser step), counted, and ends its sequence.
 //!
 //! With `[train] select_every`, phase 2's network is rolled out alone on the training
-//! motions every so many iterations and the best-scoring one becomes `OUT/phase2`
-//! (`select`).
+//! motions every so many iterations; the one that strays least from the skinned garment,
+//! among those that do not pass through themselves, becomes `OUT/phase2` (`select`).
 //!
 //! Checkpoints (`OUT/latest`, then `OUT/phase1`, `OUT/phase2` at the end of each phase) are
 //! directories written under a temporary name and renamed into place; they hold the model
