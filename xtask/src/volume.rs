@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use senc_geom::{close_holes, obj::read_obj, HoleSelection};
-use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, SizeRule, VolumeRule};
+use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, Gradients, SizeRule, VolumeRule};
 
 /// Arguments of `cargo xtask volume`.
 #[derive(clap::Args)]
@@ -52,6 +52,8 @@ pub fn run(args: &Args) -> Result<()> {
         gradient: if args.fixed_barycentric { GradientMode::FixedBarycentric } else { GradientMode::Exact },
         rule: if args.smaller_side { VolumeRule::SmallerSide } else { VolumeRule::Winding },
         size_rule: if args.area_rule { SizeRule::Area } else { SizeRule::Faces },
+        // The volume's gradient, as the self-collision energy asks for it.
+        gradients: Gradients::Volume,
     };
     let start = Instant::now();
     let mut ws = GiaWorkspace::new(&closure);

@@ -2,7 +2,8 @@
 //! mesh: `cargo run --release -p senc-gia --example profile_gia` (`SENC_PROFILE_FRAME=tshirt_0020`
 //! for a committed garment frame instead, all holes fanned).
 //!
-//! `profile_gia detect N` (or `analyse N`, `total N`, `first N`: a fresh workspace's first
+//! `profile_gia detect N` (or `analyse N`, `total N`, `volume N`: a warm call without the
+//! area's gradient, as the self-collision energy makes it, `first N`: a fresh workspace's first
 //! query on the topology seen before, `build N`: a fresh mesh and its intersector, whose
 //! search tree is built, `mesh N`: a fresh mesh and closure of the same faces, `new N`: that
 //! and a fresh workspace's first query on it, whose search tree is built) runs only that
@@ -15,7 +16,7 @@ use std::time::Instant;
 use senc_geom::cut::CutMesh;
 use senc_geom::intersect::SelfIntersector;
 use senc_geom::{close_holes, HoleSelection};
-use senc_gia::{GiaOptions, GiaWorkspace};
+use senc_gia::{GiaOptions, GiaWorkspace, Gradients};
 use senc_testmesh::garment_benchmark;
 
 fn main() {
@@ -64,6 +65,10 @@ fn main() {
                 "first" => drop(std::hint::black_box(
                     GiaWorkspace::new(&closure).penetration(&closure, &GiaOptions::default()).unwrap(),
                 )),
+                "volume" => {
+                    let opts = GiaOptions { gradients: Gradients::Volume, ..Default::default() };
+                    drop(std::hint::black_box(ws.penetration(&closure, &opts).unwrap()))
+                }
                 _ => drop(std::hint::black_box(ws.penetration(&closure, &GiaOptions::default()).unwrap())),
             }
             times.push(t.elapsed().as_secs_f64() * 1e3);

@@ -27,7 +27,8 @@ const LEFT: u8 = 1;
 const RIGHT: u8 = 2;
 
 /// Fills every closed contour, groups them and adds each group's region to `out`, its volume
-/// gradient (per cut node) to `node_grad` and its area gradient to `area_node_grad`.
+/// gradient (per cut node) to `node_grad` and its area gradient to `area_node_grad` (an
+/// empty buffer is a gradient left out, see [`crate::Gradients`]).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn regions(
     scratch: &mut Scratch,
@@ -64,8 +65,12 @@ pub(crate) fn regions(
         let area: f64 = ids.iter().map(|&id| volume::area(mesh, cut, nodes, id)).sum();
         let sign = if signed >= 0.0 { 1.0 } else { -1.0 };
         for &id in &ids {
-            volume::add_volume_gradient(mesh, cut, nodes, id, sign, node_grad);
-            volume::add_area_gradient(mesh, cut, nodes, id, 1.0, area_node_grad);
+            if !node_grad.is_empty() {
+                volume::add_volume_gradient(mesh, cut, nodes, id, sign, node_grad);
+            }
+            if !area_node_grad.is_empty() {
+                volume::add_area_gradient(mesh, cut, nodes, id, 1.0, area_node_grad);
+            }
         }
         let mut faces: Vec<u32> = ids.iter().map(|&id| cut.face_of(id)).collect();
         faces.sort_unstable();

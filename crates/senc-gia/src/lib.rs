@@ -114,6 +114,20 @@ pub enum SizeRule {
     Area,
 }
 
+/// Which gradients a query computes: the caller asks for what it uses, so a volume meter
+/// pays for no gradient and an energy without the area term for no area gradient. Not
+/// read from configs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Gradients {
+    /// None: [`Penetration::gradient`] and [`Penetration::area_gradient`] are left empty.
+    None,
+    /// The volume's: [`Penetration::area_gradient`] is left empty.
+    Volume,
+    /// The volume's and the area's.
+    #[default]
+    VolumeAndArea,
+}
+
 /// Options of one penetration query.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -124,6 +138,9 @@ pub struct GiaOptions {
     pub rule: VolumeRule,
     /// Region size rule of [`VolumeRule::SmallerSide`] (unused by the winding rule).
     pub size_rule: SizeRule,
+    /// Which gradients to compute (all by default; set by the caller, never by a config).
+    #[serde(skip)]
+    pub gradients: Gradients,
 }
 
 /// One penetrating pocket of [`VolumeRule::SmallerSide`]: the filled sides of a group of contours that bound it.
@@ -227,12 +244,14 @@ pub struct Diagnostics {
 pub struct Penetration {
     /// Total penetration volume, m³.
     pub volume: f64,
-    /// Gradient of `volume` with respect to every original (unclosed) vertex, m².
+    /// Gradient of `volume` with respect to every original (unclosed) vertex, m² (empty
+    /// when [`GiaOptions::gradients`] leaves it out).
     pub gradient: Vec<Vec3>,
     /// Area of the surface bounding the penetrated space (the paper's "w. area loss"
     /// ablation): the patches of nonzero weight, or the filled regions, m².
     pub area: f64,
-    /// Gradient of `area` with respect to every original vertex, m.
+    /// Gradient of `area` with respect to every original vertex, m (empty unless
+    /// [`GiaOptions::gradients`] is [`Gradients::VolumeAndArea`]).
     pub area_gradient: Vec<Vec3>,
     /// The patches of the cut surface ([`VolumeRule::Winding`]).
     pub patches: Vec<Patch>,
@@ -322,8 +341,11 @@ impl GiaWorkspace {
                 let mut out = self.analyse_with(&virt, &inter, options, true, &[]);
                 out.diagnostics.virtual_fan_pairs =
                     inter.segments.iter().filter(|s| s.faces.iter().any(|&f| f as usize >= self.n_faces)).count();
-                out.gradient = closure.pull_back(&out.gradient);
-                out.area_gradient = closure.pull_back(&out.area_gradient);
+                for g in [&mut out.gradient, &mut out.area_gradient] {
+                    if !g.is_empty() {
+                        *g = closure.pull_back(g);
+                    }
+                }
                 out
             });
             self.virtual_closure = Some(virt);
@@ -363,9 +385,14 @@ impl GiaWorkspace {
         out.diagnostics.candidate_pairs = inter.n_candidate_pairs;
         out.diagnostics.inconsistent_pairs = inter.n_inconsistent_pairs;
         out.diagnostics.intersecting_pairs = inter.segments.len();
+        let (volume_grad, area_grad) = match options.gradients {
+            Gradients::None => (false, false),
+            Gradients::Volume => (true, false),
+            Gradients::VolumeAndArea => (true, true),
+        };
         if inter.segments.is_empty() && options.rule == VolumeRule::SmallerSide {
-            out.gradient = vec![Vec3::zeros(); closure.n_original()];
-            out.area_gradient = vec![Vec3::zeros(); closure.n_original()];
+            let zeros = |on: bool| if on { vec![Vec3::zeros(); closure.n_original()] } else { Vec::new() };
+            (out.gradient, out.area_gradient) = (zeros(volume_grad), zeros(area_grad));
             return out;
         }
         let cut = CutMesh::new(mesh, inter);
@@ -386,9 +413,12 @@ impl GiaWorkspace {
         let nodes = std::mem::take(&mut self.nodes);
         let mut node_grad = std::mem::take(&mut self.node_grad);
         let mut area_node_grad = std::mem::take(&mut self.area_node_grad);
-        for g in [&mut node_grad, &mut area_node_grad] {
+        // A gradient left out keeps an empty buffer, which the sums below skip.
+        for (g, on) in [(&mut node_grad, volume_grad), (&mut area_node_grad, area_grad)] {
             g.clear();
-            g.resize(nodes.len(), Vec3::zeros());
+            if on {
+                g.resize(nodes.len(), Vec3::zeros());
+            }
         }
         match options.rule {
             VolumeRule::Winding => {
@@ -451,12 +481,15 @@ impl GiaWorkspace {
         let mut closed_grad = std::mem::take(&mut self.closed_grad);
         closed_grad.clear();
         closed_grad.resize(nv, Vec3::zeros());
-        out.diagnostics.gradient_fallbacks =
-            volume::chain_to_vertices(mesh, inter, &cut, options.gradient, &nodes, &mut node_grad, &mut closed_grad);
-        out.gradient = closure.pull_back(&closed_grad);
-        closed_grad.iter_mut().for_each(|g| *g = Vec3::zeros());
-        volume::chain_to_vertices(mesh, inter, &cut, options.gradient, &nodes, &mut area_node_grad, &mut closed_grad);
-        out.area_gradient = closure.pull_back(&closed_grad);
+        if volume_grad {
+            out.diagnostics.gradient_fallbacks =
+                volume::chain_to_vertices(mesh, inter, &cut, options.gradient, &nodes, &mut node_grad, &mut closed_grad);
+            out.gradient = closure.pull_back(&closed_grad);
+        }
+        if area_grad {
+            volume::chain_to_vertices(mesh, inter, &cut, options.gradient, &nodes, &mut area_node_grad, &mut closed_grad);
+            out.area_gradient = closure.pull_back(&closed_grad);
+        }
         self.nodes = nodes;
         self.node_grad = node_grad;
         self.area_node_grad = area_node_grad;

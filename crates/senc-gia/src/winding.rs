@@ -589,7 +589,8 @@ pub(crate) fn classify(
 pub const FLAT_THICKNESS: f64 = 1e-12;
 
 /// Adds each weighted patch's volume `weight · T_P` and area to `patches`, and their
-/// gradients (per cut node) to `node_grad` and `area_node_grad`. Returns the number of
+/// gradients (per cut node) to `node_grad` and `area_node_grad` (an empty buffer is a
+/// gradient left out, see [`crate::Gradients`]). Returns the number of
 /// tangles skipped because their weighted patches do not close up, and of tangles left out
 /// as flat.
 ///
@@ -678,8 +679,12 @@ pub(crate) fn accumulate(
         let w = f64::from(p.weight);
         p.volume += w * volume::signed_volume(mesh, cut, nodes, id);
         p.area += volume::area(mesh, cut, nodes, id);
-        volume::add_volume_gradient(mesh, cut, nodes, id, w, node_grad);
-        volume::add_area_gradient(mesh, cut, nodes, id, 1.0, area_node_grad);
+        if !node_grad.is_empty() {
+            volume::add_volume_gradient(mesh, cut, nodes, id, w, node_grad);
+        }
+        if !area_node_grad.is_empty() {
+            volume::add_area_gradient(mesh, cut, nodes, id, 1.0, area_node_grad);
+        }
     }
     (n_open, n_flat)
 }

@@ -57,6 +57,7 @@ fn ten_thousand_random_meshes_never_panic_or_give_nan() {
             gradient: if rng.random_bool(0.5) { GradientMode::Exact } else { GradientMode::FixedBarycentric },
             rule: if rng.random_bool(0.5) { VolumeRule::Winding } else { VolumeRule::SmallerSide },
             size_rule: if rng.random_bool(0.5) { SizeRule::Faces } else { SizeRule::Area },
+            ..Default::default()
         };
         let p = GiaWorkspace::new(&closure).penetration(&closure, &options).unwrap();
         assert!(p.volume.is_finite(), "case {case}: volume {}", p.volume);

@@ -2,7 +2,7 @@
 
 use nalgebra::{Rotation3, Vector3};
 use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
-use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, Penetration, SizeRule, VolumeRule};
+use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, Gradients, Penetration, SizeRule, VolumeRule};
 use senc_testmesh::{grid_box, icosphere, jitter, merge, rigid_transform};
 
 fn pen(mesh: &TriMesh, opts: &GiaOptions) -> Penetration {
@@ -47,6 +47,38 @@ fn overlapping_boxes_give_the_exact_overlap() {
         assert_eq!(weighted.len(), 2, "{:?}", p.patches);
         assert!(weighted.iter().all(|q| q.winding_outside == 1 && q.weight == 1));
         assert_eq!(p.diagnostics.patches_skipped, 0);
+    }
+}
+
+#[test]
+fn gradients_left_out_change_nothing_else() {
+    // Two boxes overlapping (both rules answer) and the same boxes with an open hole (the
+    // winding rule's virtual closure pulls the gradients back).
+    let boxes = two_boxes(Vec3::new(0.3, 0.2, -0.1), 2);
+    let mut open = boxes.faces().to_vec();
+    open.remove(0);
+    let open = TriMesh::new(boxes.positions().to_vec(), open).unwrap();
+    for (mesh, selection, closed) in [(&boxes, HoleSelection::All, true), (&open, HoleSelection::None, false)] {
+        let closure = close_holes(mesh, &selection).unwrap();
+        for rule in [VolumeRule::Winding, VolumeRule::SmallerSide] {
+            let query = |gradients| {
+                let opts = GiaOptions { rule, gradients, ..Default::default() };
+                GiaWorkspace::new(&closure).penetration(&closure, &opts).unwrap()
+            };
+            let all = query(Gradients::VolumeAndArea);
+            // SENC's rule may skip a contour that reaches the open hole.
+            assert!(all.volume > 0.01 || (rule == VolumeRule::SmallerSide && !closed), "{rule:?}");
+            assert_eq!(all.gradient.len(), mesh.n_vertices());
+            assert_eq!(all.area_gradient.len(), mesh.n_vertices());
+            let volume_only = query(Gradients::Volume);
+            assert_eq!((volume_only.volume, volume_only.area), (all.volume, all.area), "{rule:?}");
+            assert_eq!(volume_only.gradient, all.gradient, "{rule:?}");
+            assert!(volume_only.area_gradient.is_empty());
+            let none = query(Gradients::None);
+            assert_eq!((none.volume, none.area), (all.volume, all.area), "{rule:?}");
+            assert!(none.gradient.is_empty() && none.area_gradient.is_empty());
+            assert_eq!(none.diagnostics.patches_skipped, all.diagnostics.patches_skipped);
+        }
     }
 }
 

@@ -4,7 +4,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
 use senc_geom::{Closure, Vec3};
-use senc_gia::{GiaOptions, GiaWorkspace};
+use senc_gia::{GiaOptions, GiaWorkspace, Gradients};
 
 use crate::error::EnergyError;
 use crate::hessian::BlockSparse;
@@ -77,9 +77,11 @@ impl SelfCollision {
     /// The term on `closure` (the garment with its chosen holes closed).
     pub fn new(closure: Closure, options: GiaOptions, volume_weight: f64, area_weight: f64) -> Self {
         let ws = GiaWorkspace::new(&closure);
+        // The area's gradient only where the area term is on.
+        let gradients = if area_weight > 0.0 { Gradients::VolumeAndArea } else { Gradients::Volume };
         Self {
             state: Mutex::new((closure, ws)),
-            options,
+            options: GiaOptions { gradients, ..options },
             volume_weight,
             area_weight,
             calls: AtomicU64::new(0),

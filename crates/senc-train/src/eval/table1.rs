@@ -11,7 +11,7 @@
 
 use senc_energy::EnergyConfig;
 use senc_geom::{close_holes, Closure, Vec3};
-use senc_gia::{GiaOptions, GiaWorkspace, VolumeRule};
+use senc_gia::{GiaOptions, GiaWorkspace, Gradients, VolumeRule};
 use senc_scene::{BodyQuery, Motion};
 use serde::Serialize;
 
@@ -84,7 +84,7 @@ impl VolumeMeter {
     /// Penetration volume of `x`, m³.
     pub fn volume(&mut self, x: &[Vec3]) -> Result<f64, TrainError> {
         self.closure.update(x)?;
-        let options = GiaOptions { rule: VolumeRule::Winding, ..GiaOptions::default() };
+        let options = GiaOptions { rule: VolumeRule::Winding, gradients: Gradients::None, ..GiaOptions::default() };
         Ok(self.ws.penetration(&self.closure, &options)?.volume)
     }
 }
