@@ -482,12 +482,27 @@ impl GiaWorkspace {
         closed_grad.clear();
         closed_grad.resize(nv, Vec3::zeros());
         if volume_grad {
-            out.diagnostics.gradient_fallbacks =
-                volume::chain_to_vertices(mesh, inter, &cut, options.gradient, &nodes, &mut node_grad, &mut closed_grad);
+            out.diagnostics.gradient_fallbacks = volume::chain_to_vertices(
+                mesh,
+                inter,
+                &cut,
+                options.gradient,
+                &nodes,
+                &mut node_grad,
+                &mut closed_grad,
+            );
             out.gradient = closure.pull_back(&closed_grad);
         }
         if area_grad {
-            volume::chain_to_vertices(mesh, inter, &cut, options.gradient, &nodes, &mut area_node_grad, &mut closed_grad);
+            volume::chain_to_vertices(
+                mesh,
+                inter,
+                &cut,
+                options.gradient,
+                &nodes,
+                &mut area_node_grad,
+                &mut closed_grad,
+            );
             out.area_gradient = closure.pull_back(&closed_grad);
         }
         self.nodes = nodes;
