@@ -227,7 +227,7 @@ pub struct Diagnostics {
     /// Chords ending inside a face (paths to an open boundary).
     pub dangling_chords: usize,
     /// Points whose exact derivative fell back to fixed weights (edge nearly parallel to
-    /// the face).
+    /// the face); counted only when the volume's gradient is computed.
     pub gradient_fallbacks: usize,
     /// Regions dropped because a contour of their group failed ([`VolumeRule::SmallerSide`]).
     pub groups_skipped: usize,
@@ -480,7 +480,9 @@ impl GiaWorkspace {
         }
         let mut closed_grad = std::mem::take(&mut self.closed_grad);
         closed_grad.clear();
-        closed_grad.resize(nv, Vec3::zeros());
+        if volume_grad || area_grad {
+            closed_grad.resize(nv, Vec3::zeros());
+        }
         if volume_grad {
             out.diagnostics.gradient_fallbacks = volume::chain_to_vertices(
                 mesh,
