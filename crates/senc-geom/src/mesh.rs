@@ -107,11 +107,13 @@ impl TriMesh {
     }
 
     /// The three corner positions of face `f`.
+    #[inline]
     pub fn triangle(&self, f: usize) -> [Vec3; 3] {
         self.faces[f].map(|i| self.positions[i as usize])
     }
 
     /// Unnormalised normal `(p1 - p0) × (p2 - p0)` of face `f` (twice its area in length).
+    #[inline]
     pub fn face_normal_scaled(&self, f: usize) -> Vec3 {
         let [a, b, c] = self.triangle(f);
         (b - a).cross(&(c - a))

@@ -395,11 +395,22 @@ impl GiaWorkspace {
             (out.gradient, out.area_gradient) = (zeros(volume_grad), zeros(area_grad));
             return out;
         }
-        let cut = CutMesh::new(mesh, inter);
+        // The cut, and beside it what needs only the crossings: the contours and the winding
+        // rule's labelling of the faces the cut leaves whole.
+        let winding_scratch = &mut self.winding;
+        let winding_rule = options.rule == VolumeRule::Winding;
+        let (cut, contours) = rayon::join(
+            || CutMesh::new(mesh, inter),
+            || {
+                if winding_rule {
+                    winding::prelabel(mesh, inter, winding_scratch);
+                }
+                paths::contours(nv, inter)
+            },
+        );
         out.diagnostics.complex_faces = cut.n_complex_faces;
         out.diagnostics.triple_points = cut.crossings.len();
         out.diagnostics.dangling_chords = cut.n_dangling_chords;
-        let contours = paths::contours(nv, inter);
         for c in &contours {
             out.paths.push(PathInfo { kind: c.kind, n_steps: c.steps.len(), region: None });
             if c.kind == PathKind::OpenBoundary {

@@ -160,7 +160,19 @@ pub fn area(mesh: &TriMesh, cut: &CutMesh, nodes: &[Vec3], id: u32) -> f64 {
 
 /// Adds `scale · ∂(area of id)/∂node` into `grad`: `½ (p_{k+1} − p_{k−1}) × n̂` per corner.
 pub fn add_area_gradient(mesh: &TriMesh, cut: &CutMesh, nodes: &[Vec3], id: u32, scale: f64, grad: &mut [Vec3]) {
-    let va = vector_area(mesh, cut, nodes, id);
+    add_area_gradient_of(mesh, cut, nodes, id, vector_area(mesh, cut, nodes, id), scale, grad);
+}
+
+/// [`add_area_gradient`] for a fill id whose [`vector_area`] `va` is known.
+pub(crate) fn add_area_gradient_of(
+    mesh: &TriMesh,
+    cut: &CutMesh,
+    nodes: &[Vec3],
+    id: u32,
+    va: Vec3,
+    scale: f64,
+    grad: &mut [Vec3],
+) {
     let norm = va.norm();
     if norm == 0.0 || !norm.is_finite() {
         return;
@@ -182,7 +194,7 @@ fn for_each_cycle(mesh: &TriMesh, cut: &CutMesh, id: u32, mut f: impl FnMut(&[u3
         return;
     }
     let piece = &cut.pieces[id as usize - cut.n_faces];
-    let mut buf: Vec<u32> = Vec::new();
+    let mut buf: smallvec::SmallVec<[u32; 16]> = smallvec::SmallVec::new();
     for cycle in &piece.cycles {
         buf.clear();
         buf.extend(cycle.iter().map(|c| c.0));

@@ -77,10 +77,23 @@ pub struct Patch {
 /// Reusable buffers of the patch labelling.
 #[derive(Debug, Default)]
 pub(crate) struct Scratch {
+    /// Union-find over the components of uncut faces (`component`) and the pieces.
     parent: Vec<u32>,
     /// Per fill id: its patch, or `u32::MAX` for the ids of cut faces (replaced by pieces).
     pub(crate) patch_of: Vec<u32>,
     root_patch: Vec<u32>,
+    /// Per face: whether an intersection segment lies on it (the faces the cut splits).
+    crossed: Vec<bool>,
+    /// Per face that is not `crossed`: its component among those faces, joined across
+    /// their shared edges (numbered from 0 in the order of their smallest faces);
+    /// `u32::MAX` for crossed faces.
+    component: Vec<u32>,
+    n_components: u32,
+    stack: Vec<u32>,
+    /// Per face: its squared doubled area, `|(b − a) × (c − a)|²` (ranks the probes).
+    area2: Vec<f64>,
+    /// Whether `crossed`, `component` and `area2` are [`prelabel`]'s for the current call.
+    prelabelled: bool,
 }
 
 fn find(parent: &mut [u32], mut x: u32) -> u32 {
@@ -104,23 +117,106 @@ fn live_ids(cut: &CutMesh) -> impl Iterator<Item = u32> + '_ {
     (0..cut.n_fill_ids() as u32).filter(move |&id| id as usize >= cut.n_faces || !cut.is_cut(id))
 }
 
-/// Labels the patches of the cut surface; returns their number (`scratch.patch_of` holds
-/// each fill id's patch).
-pub(crate) fn label_patches(mesh: &TriMesh, cut: &CutMesh, scratch: &mut Scratch) -> usize {
-    let n_ids = cut.n_fill_ids();
-    let parent = &mut scratch.parent;
-    parent.clear();
-    parent.extend(0..n_ids as u32);
-    for &[g, h] in mesh.topology().edge_faces() {
-        if g != NO_FACE && h != NO_FACE && !cut.is_cut(g) && !cut.is_cut(h) {
-            union(parent, g, h);
+/// The part of the patch labelling that needs no cut, so that it can run beside
+/// [`CutMesh::new`]: the faces an intersection segment lies on (those the cut splits), the
+/// unions of the other faces across their shared edges, and every face's squared doubled
+/// area for the probes of [`classify`].
+pub(crate) fn prelabel(mesh: &TriMesh, inter: &SelfIntersections, scratch: &mut Scratch) {
+    let crossed = &mut scratch.crossed;
+    crossed.clear();
+    crossed.resize(mesh.n_faces(), false);
+    for seg in &inter.segments {
+        for &f in &seg.faces {
+            if let Some(c) = crossed.get_mut(f as usize) {
+                *c = true;
+            }
         }
     }
+    label_uncut(mesh, scratch);
+    face_areas(mesh, &mut scratch.area2);
+    scratch.prelabelled = true;
+}
+
+/// The components of the faces that are not `scratch.crossed`, joined across their shared
+/// edges, into `scratch.component` (a depth-first search from each face not reached yet, in
+/// face order).
+fn label_uncut(mesh: &TriMesh, scratch: &mut Scratch) {
+    let topo = mesh.topology();
+    let (face_edges, edge_faces) = (topo.face_edges(), topo.edge_faces());
+    let Scratch { crossed, component, n_components, stack, .. } = scratch;
+    component.clear();
+    component.resize(mesh.n_faces(), u32::MAX);
+    let mut n = 0u32;
+    for start in 0..mesh.n_faces() {
+        if crossed[start] || component[start] != u32::MAX {
+            continue;
+        }
+        component[start] = n;
+        stack.clear();
+        stack.push(start as u32);
+        while let Some(f) = stack.pop() {
+            for &e in &face_edges[f as usize] {
+                let [g0, g1] = edge_faces[e as usize];
+                let g = if g0 == f { g1 } else { g0 };
+                if g != NO_FACE && !crossed[g as usize] && component[g as usize] == u32::MAX {
+                    component[g as usize] = n;
+                    stack.push(g);
+                }
+            }
+        }
+        n += 1;
+    }
+    *n_components = n;
+}
+
+/// Every face's squared doubled area into `area2` (in parallel chunks: each entry depends
+/// on its face only).
+fn face_areas(mesh: &TriMesh, area2: &mut Vec<f64>) {
+    use rayon::prelude::*;
+    area2.resize(mesh.n_faces(), 0.0);
+    area2.par_iter_mut().enumerate().with_min_len(2048).for_each(|(f, a)| {
+        *a = mesh.face_normal_scaled(f).norm_squared();
+    });
+}
+
+/// Labels the patches of the cut surface; returns their number (`scratch.patch_of` holds
+/// each fill id's patch). Uses what [`prelabel`] computed for this call, where its crossed
+/// faces are the faces `cut` split; computes it here otherwise.
+pub(crate) fn label_patches(mesh: &TriMesh, cut: &CutMesh, scratch: &mut Scratch) -> usize {
+    let n_ids = cut.n_fill_ids();
+    let prelabelled = std::mem::take(&mut scratch.prelabelled);
+    if !(prelabelled && scratch.area2.len() == mesh.n_faces()) {
+        face_areas(mesh, &mut scratch.area2);
+    }
+    let fresh = prelabelled
+        && scratch.crossed.len() == cut.n_faces
+        && scratch.component.len() == cut.n_faces
+        && scratch.crossed.iter().enumerate().all(|(f, &c)| c == cut.is_cut(f as u32));
+    if !fresh {
+        scratch.crossed.clear();
+        scratch.crossed.extend((0..cut.n_faces as u32).map(|f| cut.is_cut(f)));
+        label_uncut(mesh, scratch);
+    }
+    // Union-find over the components (elements `0..n_components`) and the pieces (then
+    // one element each): each piece joined with its neighbours across original edges.
+    let n_components = scratch.n_components;
+    let component = &scratch.component;
+    let element = |id: u32| {
+        if (id as usize) < cut.n_faces {
+            component[id as usize]
+        } else {
+            n_components + (id - cut.n_faces as u32)
+        }
+    };
+    let n_elements = n_components as usize + cut.pieces.len();
+    let parent = &mut scratch.parent;
+    parent.clear();
+    parent.extend(0..n_elements as u32);
     for k in 0..cut.pieces.len() {
         let id = (cut.n_faces + k) as u32;
         cut.for_each_neighbour(mesh, id, |nb, wall| {
             if wall.is_none() {
-                union(parent, id, nb);
+                union(parent, element(id), element(nb));
             }
         });
     }
@@ -130,9 +226,9 @@ pub(crate) fn label_patches(mesh: &TriMesh, cut: &CutMesh, scratch: &mut Scratch
     let mut n = 0u32;
     let root_patch = &mut scratch.root_patch;
     root_patch.clear();
-    root_patch.resize(n_ids, u32::MAX);
+    root_patch.resize(n_elements, u32::MAX);
     for id in live_ids(cut) {
-        let r = find(parent, id) as usize;
+        let r = find(parent, element(id)) as usize;
         if root_patch[r] == u32::MAX {
             root_patch[r] = n;
             n += 1;
@@ -349,7 +445,7 @@ pub(crate) fn classify(
         let p = patch_of[id as usize] as usize;
         let (best, area) = if (id as usize) < cut.n_faces {
             patches[p].n_faces += 1;
-            (&mut best_face[p], mesh.face_normal_scaled(id as usize).norm_squared())
+            (&mut best_face[p], scratch.area2[id as usize])
         } else {
             patches[p].n_pieces += 1;
             (&mut best_piece[p], volume::area(mesh, cut, nodes, id))
@@ -626,8 +722,10 @@ pub(crate) fn accumulate(
     if patches.iter().all(|p| p.weight == 0) {
         return (0, 0);
     }
-    // Weighted vector area, total area and weighted volume per tangle.
+    // Weighted vector area, total area and weighted volume per tangle; each weighted fill
+    // id with its vector area and signed volume, for the sums below.
     let mut closure: Vec<(Vec3, f64, f64)> = vec![(Vec3::zeros(), 0.0, 0.0); patches.len()];
+    let mut weighted: Vec<(u32, Vec3, f64)> = Vec::new();
     for id in live_ids(cut) {
         let p = scratch.patch_of[id as usize] as usize;
         if patches[p].weight == 0 {
@@ -635,10 +733,12 @@ pub(crate) fn accumulate(
         }
         let w = f64::from(patches[p].weight);
         let a = volume::vector_area(mesh, cut, nodes, id);
+        let v = volume::signed_volume(mesh, cut, nodes, id);
         let t = &mut closure[tangle_of[p] as usize];
         t.0 += a * w;
         t.1 += a.norm();
-        t.2 += w * volume::signed_volume(mesh, cut, nodes, id);
+        t.2 += w * v;
+        weighted.push((id, a, v));
     }
     let (lo, hi) = mesh
         .positions()
@@ -671,19 +771,20 @@ pub(crate) fn accumulate(
             _ => {}
         }
     }
-    for id in live_ids(cut) {
+    // Weights only drop to 0 above, so these are the weighted ids left, in the same order.
+    for &(id, a, v) in &weighted {
         let p = &mut patches[scratch.patch_of[id as usize] as usize];
         if p.weight == 0 {
             continue;
         }
         let w = f64::from(p.weight);
-        p.volume += w * volume::signed_volume(mesh, cut, nodes, id);
-        p.area += volume::area(mesh, cut, nodes, id);
+        p.volume += w * v;
+        p.area += a.norm();
         if !node_grad.is_empty() {
             volume::add_volume_gradient(mesh, cut, nodes, id, w, node_grad);
         }
         if !area_node_grad.is_empty() {
-            volume::add_area_gradient(mesh, cut, nodes, id, 1.0, area_node_grad);
+            volume::add_area_gradient_of(mesh, cut, nodes, id, a, 1.0, area_node_grad);
         }
     }
     (n_open, n_flat)

@@ -48,13 +48,15 @@ pub(super) fn find_crossings(
     edges: &[(u32, u32, u32, usize)],
 ) -> Vec<(usize, usize, f64, f64, [f64; 2])> {
     let mut out = Vec::new();
+    // Each edge's ends in the face's local coordinates, computed once.
+    let ends: Vec<[[f64; 2]; 2]> = edges.iter().map(|&(a, b, _, _)| [frame.local(a), frame.local(b)]).collect();
     for i in 0..edges.len() {
         for j in i + 1..edges.len() {
             let ((a, b, _, _), (c, d, _, _)) = (edges[i], edges[j]);
             if a == c || a == d || b == c || b == d {
                 continue;
             }
-            let (pa, pb, pc, pd) = (frame.local(a), frame.local(b), frame.local(c), frame.local(d));
+            let ([pa, pb], [pc, pd]) = (ends[i], ends[j]);
             let (o1, o2) = (orient(pa, pb, pc), orient(pa, pb, pd));
             let (o3, o4) = (orient(pc, pd, pa), orient(pc, pd, pb));
             if o1 * o2 < 0.0 && o3 * o4 < 0.0 {
@@ -127,6 +129,8 @@ impl Split {
             let (p, q) = (pos(from), pos(to));
             (q[1] - p[1]).atan2(q[0] - p[0])
         };
+        // Each half-edge's direction, computed once.
+        let direction: Vec<f64> = half.iter().map(|&(u, v, _)| angle(u, v)).collect();
         // Next half-edge: at the head, the first outgoing one clockwise from the way back.
         let next = |h: usize| -> Option<usize> {
             let (u, v, _) = half[h];
@@ -137,7 +141,7 @@ impl Split {
                 .iter()
                 .copied()
                 .map(|g| {
-                    let turn = (back - angle(v, half[g].1)).rem_euclid(tau);
+                    let turn = (back - direction[g]).rem_euclid(tau);
                     (if half[g].1 == u || turn == 0.0 { tau } else { turn }, g)
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0))

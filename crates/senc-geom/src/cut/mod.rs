@@ -650,21 +650,17 @@ fn trace_cycles(events: &[Event], proper: &[Vec<(u32, u32)>]) -> Vec<Vec<(u32, E
                 break;
             }
             if let Some((ci, at_start)) = events[k].chord {
-                // Follow the chord to its other end.
+                // Follow the chord to its other end, all but its last node; backwards, the
+                // segment to the next node is the one stored one step back.
                 let c = &proper[ci];
-                let nodes: Vec<(u32, u32)> = if at_start {
-                    c.clone()
-                } else {
-                    // Reverse: the segment to the next node is the one stored one step back.
-                    let mut r: Vec<(u32, u32)> = Vec::with_capacity(c.len());
-                    for w in (0..c.len()).rev() {
-                        let seg = if w > 0 { c[w - 1].1 } else { u32::MAX };
-                        r.push((c[w].0, seg));
+                if at_start {
+                    for &(node, seg) in &c[..c.len() - 1] {
+                        push(&mut cycle, node, EdgeTag::Chord { segment: seg });
                     }
-                    r
-                };
-                for &(node, seg) in &nodes[..nodes.len() - 1] {
-                    push(&mut cycle, node, EdgeTag::Chord { segment: seg });
+                } else {
+                    for w in (1..c.len()).rev() {
+                        push(&mut cycle, c[w].0, EdgeTag::Chord { segment: c[w - 1].1 });
+                    }
                 }
                 let other = chord_event[ci][if at_start { 1 } else { 0 }];
                 if other == j0 || visited[other] {

@@ -135,22 +135,25 @@ impl LeafVerts {
 
     /// For face `f` (vertex ids) of group `g`: the masks of lanes that share no vertex with
     /// it and of lanes that share exactly one, both without the lanes of the same nonzero
-    /// group (pairs sharing an edge or in one group are never tested).
+    /// group (pairs sharing an edge or in one group are never tested), and per corner `k`
+    /// of `f` the mask of lanes holding vertex `f[k]`.
     #[inline(always)]
-    pub(super) fn classify(&self, f: [u32; 3], g: u32) -> (u32, u32) {
+    pub(super) fn classify(&self, f: [u32; 3], g: u32) -> (u32, u32, [u32; 3]) {
         let corners = [i32x4::new(self.v[0]), i32x4::new(self.v[1]), i32x4::new(self.v[2])];
-        // Minus the number of shared vertices per lane (an equal comparison is −1).
+        // Minus the number of shared vertices per lane: a lane's corners are distinct, so
+        // each vertex of `f` equals at most one of them (an equal comparison is −1).
         let mut neg_shared = i32x4::splat(0);
-        for v in f {
+        let mut holds = [0u32; 3];
+        for (k, v) in f.into_iter().enumerate() {
             let v = i32x4::splat(v as i32);
-            for c in corners {
-                neg_shared += v.cmp_eq(c);
-            }
+            let eq = v.cmp_eq(corners[0]) | v.cmp_eq(corners[1]) | v.cmp_eq(corners[2]);
+            neg_shared += eq;
+            holds[k] = eq.move_mask() as u32;
         }
         let same_group = if g == 0 { 0 } else { i32x4::splat(g as i32).cmp_eq(i32x4::new(self.g)).move_mask() as u32 };
         let none = neg_shared.cmp_eq(i32x4::splat(0)).move_mask() as u32;
         let one = neg_shared.cmp_eq(i32x4::splat(-1)).move_mask() as u32;
-        (none & !same_group, one & !same_group)
+        (none & !same_group, one & !same_group, holds)
     }
 }
 
@@ -554,7 +557,7 @@ impl SelfIntersector {
                 *nbox = NormalBox::EMPTY;
                 let mut trusted = true;
                 for (k, (bx, pl)) in boxes.iter_mut().zip(planes.iter_mut()).enumerate() {
-                    let [a, b, c] = slot_faces[group * LEAF_SIZE + k].map(|v| pos[v as usize]);
+                    let [a, b, c] = map3(slot_faces[group * LEAF_SIZE + k], |v| pos[v as usize]);
                     *bx = Aabb3::of_triangle(a, b, c);
                     *pl = FacePlane::of_triangle(a, b, c);
                     match nbox.add_face(pl.n, b - a, c - a) {

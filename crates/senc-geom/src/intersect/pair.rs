@@ -41,6 +41,13 @@ pub(super) struct PairResult {
     pub(super) inconsistent: bool,
 }
 
+/// `[f(a[0]), f(a[1]), f(a[2])]`: the array's `map`, always inlined (the library's is a
+/// call in the pair tests' hot paths).
+#[inline(always)]
+pub(super) fn map3<T: Copy, U>(a: [T; 3], f: impl Fn(T) -> U) -> [U; 3] {
+    [f(a[0]), f(a[1]), f(a[2])]
+}
+
 /// Side of `v` relative to the plane when the float evaluation is certain: `Some(true)` on
 /// the positive side, `Some(false)` on the negative side, `None` when too close to tell.
 #[inline]
@@ -138,8 +145,8 @@ pub(super) fn separated_by_edge_normal(
     pg: &FacePlane,
 ) -> bool {
     for (t, o, pl) in [(fv, gv, pf), (gv, fv, pg)] {
-        let tp = t.map(|v| pos[v as usize]);
-        let op = o.map(|v| pos[v as usize]);
+        let tp = map3(t, |v| pos[v as usize]);
+        let op = map3(o, |v| pos[v as usize]);
         'edges: for k in 0..3 {
             let (p, q, r) = (tp[k], tp[(k + 1) % 3], tp[(k + 2) % 3]);
             let e = q - p;
@@ -182,7 +189,7 @@ pub(super) fn edge_orients_agree(mesh: &TriMesh, edge: [u32; 2], face: [u32; 3])
     let pa = pos[a as usize];
     let d = pos[b as usize] - pa;
     let dn = d.norm_squared();
-    let w = face.map(|v| pos[v as usize] - pa);
+    let w = map3(face, |v| pos[v as usize] - pa);
     let orient = |i: usize, j: usize| -> Ordering {
         let v = d.dot(&w[i].cross(&w[j]));
         let bound2 = 1e-26 * dn * w[i].norm_squared() * w[j].norm_squared();
@@ -217,8 +224,8 @@ pub(super) fn test_pair_planes(mesh: &TriMesh, f: u32, g: u32, pf: &FacePlane, p
     match (n_shared, shared) {
         (0, _) => {
             let pos = mesh.positions();
-            let cg = gv.map(|v| certain_side(pf, pos[v as usize]));
-            let cf = fv.map(|v| certain_side(pg, pos[v as usize]));
+            let cg = map3(gv, |v| certain_side(pf, pos[v as usize]));
+            let cf = map3(fv, |v| certain_side(pg, pos[v as usize]));
             for c in [cg, cf] {
                 if let [Some(a), Some(b), Some(c)] = c {
                     if a == b && b == c {
@@ -236,11 +243,11 @@ pub(super) fn test_pair_planes(mesh: &TriMesh, f: u32, g: u32, pf: &FacePlane, p
                 Some(false) => Ordering::Greater,
                 None => sos(mesh, [t[0], t[1], t[2], v]),
             };
-            let sg = [0, 1, 2].map(|k| resolve(cg[k], fv, gv[k]));
+            let sg = map3([0, 1, 2], |k| resolve(cg[k], fv, gv[k]));
             if sg[0] == sg[1] && sg[1] == sg[2] {
                 return None;
             }
-            let sf = [0, 1, 2].map(|k| resolve(cf[k], gv, fv[k]));
+            let sf = map3([0, 1, 2], |k| resolve(cf[k], gv, fv[k]));
             if sf[0] == sf[1] && sf[1] == sf[2] {
                 return None;
             }

@@ -259,8 +259,24 @@ impl Traversal<'_> {
                         self.leaf_between(nx.a, nx.b, ny.a, acc);
                         continue;
                     }
-                    let split_x = !nx.leaf && (ny.leaf || nx.bbox.size() >= ny.bbox.size());
-                    let (keep, split) = if split_x { (y, nx) } else { (x, ny) };
+                    if !nx.leaf && !ny.leaf {
+                        // Both inner: the pairs of their children whose boxes overlap (a child
+                        // of `x` clear of `y` is dropped before its two pairs).
+                        for cx in [nx.a, nx.b] {
+                            let bx = nodes[cx as usize].bbox;
+                            if !bx.overlaps(&ny.bbox) {
+                                continue;
+                            }
+                            for cy in [ny.a, ny.b] {
+                                if nodes[cy as usize].bbox.overlaps(&bx) {
+                                    stack.push(Task::Between(cx, cy));
+                                }
+                            }
+                        }
+                        continue;
+                    }
+                    // One leaf: descend the other node.
+                    let (keep, split) = if nx.leaf { (x, ny) } else { (y, nx) };
                     let kb = nodes[keep as usize].bbox;
                     for c in [split.a, split.b] {
                         if nodes[c as usize].bbox.overlaps(&kb) {
@@ -307,7 +323,7 @@ impl Traversal<'_> {
             return;
         }
         let fa = self.slot_faces[i as usize];
-        let (none, one) = self.leaf_verts[group].classify(fa, self.slot_groups[i as usize]);
+        let (none, one, holds) = self.leaf_verts[group].classify(fa, self.slot_groups[i as usize]);
         let mut m = mask & none;
         while m != 0 {
             let k = m.trailing_zeros();
@@ -320,10 +336,10 @@ impl Traversal<'_> {
             let k = m.trailing_zeros();
             m &= m - 1;
             let j = (c + k) as usize;
-            let fb = self.slot_faces[j];
-            let shared = if fb.contains(&fa[0]) {
+            let bit = 1 << k;
+            let shared = if holds[0] & bit != 0 {
                 fa[0]
-            } else if fb.contains(&fa[1]) {
+            } else if holds[1] & bit != 0 {
                 fa[1]
             } else {
                 fa[2]
