@@ -330,6 +330,13 @@ impl GiaWorkspace {
 
     /// Penetration volume, area and gradients of the closed mesh at its current positions.
     pub fn penetration(&mut self, closure: &Closure, options: &GiaOptions) -> Result<Penetration, GiaError> {
+        // On one of rayon's threads from the start: the parallel steps inside (refit,
+        // traversal, cut, labelling) then start there directly, not each by handing work
+        // from this thread to the pool and waiting for it.
+        rayon::scope(|_| self.penetration_here(closure, options))
+    }
+
+    fn penetration_here(&mut self, closure: &Closure, options: &GiaOptions) -> Result<Penetration, GiaError> {
         let mesh = closure.mesh();
         if mesh.n_faces() != self.n_faces {
             return Err(GiaError::WrongMesh { expected: self.n_faces, got: mesh.n_faces() });

@@ -224,14 +224,16 @@ pub(super) fn test_pair_planes(mesh: &TriMesh, f: u32, g: u32, pf: &FacePlane, p
     match (n_shared, shared) {
         (0, _) => {
             let pos = mesh.positions();
+            // Certainly all on one side of the other's plane: apart (`g`'s vertices first,
+            // `f`'s only where that did not settle it).
+            let one_side = |c: [Option<bool>; 3]| matches!(c, [Some(a), Some(b), Some(c)] if a == b && b == c);
             let cg = map3(gv, |v| certain_side(pf, pos[v as usize]));
+            if one_side(cg) {
+                return None;
+            }
             let cf = map3(fv, |v| certain_side(pg, pos[v as usize]));
-            for c in [cg, cf] {
-                if let [Some(a), Some(b), Some(c)] = c {
-                    if a == b && b == c {
-                        return None;
-                    }
-                }
+            if one_side(cf) {
+                return None;
             }
             // Nearly coplanar: try to separate the faces within the plane before any exact
             // predicate.
