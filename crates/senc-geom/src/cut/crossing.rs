@@ -24,9 +24,13 @@ pub struct ChordCrossing {
     pub bary: [f64; 3],
 }
 
-/// The chord edges of a face: `(from, to, segment, run)`.
-pub(super) fn run_edges(chords: &[Vec<(u32, u32)>], loops: &[Vec<(u32, u32)>]) -> Vec<(u32, u32, u32, usize)> {
-    let mut edges = Vec::new();
+/// The chord edges of a face, `(from, to, segment, run)`, into `edges`.
+pub(super) fn run_edges(
+    chords: &[Vec<(u32, u32)>],
+    loops: &[Vec<(u32, u32)>],
+    edges: &mut Vec<(u32, u32, u32, usize)>,
+) {
+    edges.clear();
     for (r, c) in chords.iter().enumerate() {
         edges.extend(c.windows(2).map(|w| (w[0].0, w[1].0, w[0].1, r)));
     }
@@ -34,22 +38,24 @@ pub(super) fn run_edges(chords: &[Vec<(u32, u32)>], loops: &[Vec<(u32, u32)>]) -
         let r = chords.len() + r;
         edges.extend((0..l.len()).map(|i| (l[i].0, l[(i + 1) % l.len()].0, l[i].1, r)));
     }
-    edges
 }
 
 fn orient(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
     (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 }
 
-/// Proper crossings between edges of different runs: `(edge i, edge j, parameter on i,
-/// parameter on j, local point)`.
+/// Proper crossings between edges of different runs, `(edge i, edge j, parameter on i,
+/// parameter on j, local point)`, into `out` (`ends`: scratch).
 pub(super) fn find_crossings(
     frame: &FaceFrame,
     edges: &[(u32, u32, u32, usize)],
-) -> Vec<(usize, usize, f64, f64, [f64; 2])> {
-    let mut out = Vec::new();
+    ends: &mut Vec<[[f64; 2]; 2]>,
+    out: &mut Vec<(usize, usize, f64, f64, [f64; 2])>,
+) {
+    out.clear();
     // Each edge's ends in the face's local coordinates, computed once.
-    let ends: Vec<[[f64; 2]; 2]> = edges.iter().map(|&(a, b, _, _)| [frame.local(a), frame.local(b)]).collect();
+    ends.clear();
+    ends.extend(edges.iter().map(|&(a, b, _, _)| [frame.local(a), frame.local(b)]));
     for i in 0..edges.len() {
         for j in i + 1..edges.len() {
             let ((a, b, _, _), (c, d, _, _)) = (edges[i], edges[j]);
@@ -67,7 +73,6 @@ pub(super) fn find_crossings(
             }
         }
     }
-    out
 }
 
 impl Split {

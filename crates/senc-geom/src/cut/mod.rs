@@ -332,6 +332,27 @@ struct Split {
     crossings: Vec<ChordCrossing>,
     n_dangling_chords: usize,
     n_complex_faces: usize,
+    /// Buffers reused from face to face.
+    buf: FaceBuffers,
+}
+
+/// Per-face working lists of [`Split::split_face`], kept between faces so that each face
+/// does not allocate them again (each use clears them first).
+#[derive(Default)]
+struct FaceBuffers {
+    /// [`walk_segments`]: node adjacency, used half segments, chord starts.
+    adj: FxHashMap<u32, smallvec::SmallVec<[(u32, u32); 2]>>,
+    used: Vec<bool>,
+    starts: Vec<u32>,
+    /// [`perimeter_events`].
+    events: Vec<Event>,
+    /// [`crossing::run_edges`], [`crossing::find_crossings`] (and its edge ends).
+    edges: Vec<(u32, u32, u32, usize)>,
+    ends: Vec<[[f64; 2]; 2]>,
+    crossings: Vec<(usize, usize, f64, f64, [f64; 2])>,
+    /// [`trace_cycles`]: each chord's events, visited events.
+    chord_event: Vec<[usize; 2]>,
+    visited: Vec<bool>,
 }
 
 impl Split {
@@ -341,7 +362,13 @@ impl Split {
     /// face whose segments cannot be ordered is kept whole and counted as complex.
     fn split_face(&mut self, mesh: &TriMesh, inter: &SelfIntersections, face: u32, segs: &[HalfSeg]) {
         let frame = FaceFrame { mesh, inter, nv: self.n_vertices, fv: mesh.faces()[face as usize] };
-        let walk = walk_segments(&frame, segs);
+        let mut buf = std::mem::take(&mut self.buf);
+        self.split_face_with(&frame, face, segs, &mut buf);
+        self.buf = buf;
+    }
+
+    fn split_face_with(&mut self, frame: &FaceFrame, face: u32, segs: &[HalfSeg], buf: &mut FaceBuffers) {
+        let walk = walk_segments(frame, segs, buf);
         let mut proper: Vec<Vec<(u32, u32)>> = Vec::new();
         for c in walk.chords {
             let end = c.last().map(|x| x.0).unwrap_or(0);
@@ -355,21 +382,22 @@ impl Split {
             self.n_complex_faces += 1;
             return self.push_whole(face, frame.fv);
         }
-        let events = perimeter_events(&frame, &proper);
-        let edges = crossing::run_edges(&proper, &walk.loops);
-        let crossings = crossing::find_crossings(&frame, &edges);
+        perimeter_events(frame, &proper, &mut buf.events);
+        crossing::run_edges(&proper, &walk.loops, &mut buf.edges);
+        crossing::find_crossings(frame, &buf.edges, &mut buf.ends, &mut buf.crossings);
+        let (events, edges, crossings) = (&buf.events, &buf.edges, &buf.crossings);
         if !crossings.is_empty() {
-            if !self.split_crossing_face(&frame, face, &events, &edges, &crossings) {
+            if !self.split_crossing_face(frame, face, events, edges, crossings) {
                 self.n_complex_faces += 1;
                 self.push_whole(face, frame.fv);
             }
             return;
         }
         let first_piece = self.pieces.len();
-        for cycle in trace_cycles(&events, &proper) {
+        for cycle in trace_cycles(events, &proper, &mut buf.chord_event, &mut buf.visited) {
             self.pieces.push(Piece { face, cycles: vec![cycle] });
         }
-        self.place_loops(&frame, face, first_piece, walk.loops);
+        self.place_loops(frame, face, first_piece, walk.loops);
         if self.pieces.len() == first_piece {
             self.n_complex_faces += 1;
             self.push_whole(face, frame.fv);
@@ -489,9 +517,10 @@ struct Walk {
     complex: bool,
 }
 
-fn walk_segments(frame: &FaceFrame, segs: &[HalfSeg]) -> Walk {
+fn walk_segments(frame: &FaceFrame, segs: &[HalfSeg], buf: &mut FaceBuffers) -> Walk {
     // Adjacency of this face's nodes through its half segments.
-    let mut adj: FxHashMap<u32, smallvec::SmallVec<[(u32, u32); 2]>> = FxHashMap::default();
+    let adj = &mut buf.adj;
+    adj.clear();
     for (k, s) in segs.iter().enumerate() {
         adj.entry(s.a).or_default().push((s.b, k as u32));
         adj.entry(s.b).or_default().push((s.a, k as u32));
@@ -499,11 +528,15 @@ fn walk_segments(frame: &FaceFrame, segs: &[HalfSeg]) -> Walk {
     // Interior (face) nodes must have degree 2; a degree-1 face node is a dangling end.
     let mut complex = adj.iter().any(|(&n, list)| !frame.is_perimeter(n) && list.len() > 2);
     // Walk chords from perimeter nodes.
-    let mut used = vec![false; segs.len()];
+    let used = &mut buf.used;
+    used.clear();
+    used.resize(segs.len(), false);
     let mut chords: Vec<Vec<(u32, u32)>> = Vec::new();
-    let mut starts: Vec<u32> = adj.keys().copied().filter(|&n| frame.is_perimeter(n)).collect();
+    let starts = &mut buf.starts;
+    starts.clear();
+    starts.extend(adj.keys().copied().filter(|&n| frame.is_perimeter(n)));
     starts.sort_unstable();
-    for &s in &starts {
+    for &s in starts.iter() {
         for &(next0, k0) in adj[&s].clone().iter() {
             if used[k0 as usize] {
                 continue;
@@ -572,9 +605,9 @@ pub(crate) struct Event {
 
 /// The three corners and both ends of every chord, sorted counterclockwise along the
 /// perimeter.
-fn perimeter_events(frame: &FaceFrame, proper: &[Vec<(u32, u32)>]) -> Vec<Event> {
+fn perimeter_events(frame: &FaceFrame, proper: &[Vec<(u32, u32)>], events: &mut Vec<Event>) {
     let (nv, fv) = (frame.nv, frame.fv);
-    let mut events: Vec<Event> = Vec::new();
+    events.clear();
     for k in 0..3u32 {
         events.push(Event { s: k as f64, tie: f64::INFINITY, node: fv[k as usize], chord: None });
     }
@@ -605,15 +638,20 @@ fn perimeter_events(frame: &FaceFrame, proper: &[Vec<(u32, u32)>]) -> Vec<Event>
         }
     }
     events.sort_by(|a, b| a.s.total_cmp(&b.s).then(a.tie.total_cmp(&b.tie)).then(a.node.cmp(&b.node)));
-    events
 }
 
 /// The outer cycles of the pieces: walk the perimeter counterclockwise and, at each chord
 /// end, follow the chord to its other end.
-fn trace_cycles(events: &[Event], proper: &[Vec<(u32, u32)>]) -> Vec<Vec<(u32, EdgeTag)>> {
+fn trace_cycles(
+    events: &[Event],
+    proper: &[Vec<(u32, u32)>],
+    chord_event: &mut Vec<[usize; 2]>,
+    visited: &mut Vec<bool>,
+) -> Vec<Vec<(u32, EdgeTag)>> {
     let m = events.len();
     // Where each chord end sits among the events.
-    let mut chord_event = vec![[usize::MAX; 2]; proper.len()];
+    chord_event.clear();
+    chord_event.resize(proper.len(), [usize::MAX; 2]);
     for (i, ev) in events.iter().enumerate() {
         if let Some((ci, at_start)) = ev.chord {
             chord_event[ci][if at_start { 0 } else { 1 }] = i;
@@ -629,7 +667,8 @@ fn trace_cycles(events: &[Event], proper: &[Vec<(u32, u32)>]) -> Vec<Vec<(u32, E
         }
         cycle.push((node, tag));
     };
-    let mut visited = vec![false; m];
+    visited.clear();
+    visited.resize(m, false);
     let mut out = Vec::new();
     for j0 in 0..m {
         if visited[j0] {

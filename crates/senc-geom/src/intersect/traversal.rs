@@ -236,7 +236,7 @@ impl Traversal<'_> {
         while let Some(t) = stack.pop() {
             match t {
                 Task::Within(n) => {
-                    let nd = nodes[n as usize];
+                    let nd = &nodes[n as usize];
                     if self.grouped && self.node_groups[n as usize] != 0 {
                         continue;
                     }
@@ -251,7 +251,7 @@ impl Traversal<'_> {
                     }
                 }
                 Task::Between(x, y) => {
-                    let (nx, ny) = (nodes[x as usize], nodes[y as usize]);
+                    let (nx, ny) = (&nodes[x as usize], &nodes[y as usize]);
                     if self.same_group(x, y) {
                         continue;
                     }
@@ -263,12 +263,12 @@ impl Traversal<'_> {
                         // Both inner: the pairs of their children whose boxes overlap (a child
                         // of `x` clear of `y` is dropped before its two pairs).
                         for cx in [nx.a, nx.b] {
-                            let bx = nodes[cx as usize].bbox;
+                            let bx = &nodes[cx as usize].bbox;
                             if !bx.overlaps(&ny.bbox) {
                                 continue;
                             }
                             for cy in [ny.a, ny.b] {
-                                if nodes[cy as usize].bbox.overlaps(&bx) {
+                                if nodes[cy as usize].bbox.overlaps(bx) {
                                     stack.push(Task::Between(cx, cy));
                                 }
                             }
@@ -277,9 +277,9 @@ impl Traversal<'_> {
                     }
                     // One leaf: descend the other node.
                     let (keep, split) = if nx.leaf { (x, ny) } else { (y, nx) };
-                    let kb = nodes[keep as usize].bbox;
+                    let kb = &nodes[keep as usize].bbox;
                     for c in [split.a, split.b] {
-                        if nodes[c as usize].bbox.overlaps(&kb) {
+                        if nodes[c as usize].bbox.overlaps(kb) {
                             stack.push(Task::Between(keep, c));
                         }
                     }
