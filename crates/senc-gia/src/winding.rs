@@ -89,7 +89,8 @@ pub(crate) struct Scratch {
     /// `u32::MAX` for crossed faces.
     component: Vec<u32>,
     n_components: u32,
-    stack: Vec<u32>,
+    /// Union-find over the faces for `component`.
+    face_parent: Vec<u32>,
     /// Per face: its squared doubled area, `|(b − a) × (c − a)|²` (ranks the probes).
     area2: Vec<f64>,
     /// Whether `crossed`, `component` and `area2` are [`prelabel`]'s for the current call.
@@ -138,33 +139,32 @@ pub(crate) fn prelabel(mesh: &TriMesh, inter: &SelfIntersections, scratch: &mut 
 }
 
 /// The components of the faces that are not `scratch.crossed`, joined across their shared
-/// edges, into `scratch.component` (a depth-first search from each face not reached yet, in
-/// face order).
+/// edges, into `scratch.component`: a union-find over the edges (independent steps, which
+/// the processor overlaps, unlike the dependent loads of a search), each set's root its
+/// smallest face, which numbers the components in face order.
 fn label_uncut(mesh: &TriMesh, scratch: &mut Scratch) {
-    let topo = mesh.topology();
-    let (face_edges, edge_faces) = (topo.face_edges(), topo.edge_faces());
-    let Scratch { crossed, component, n_components, stack, .. } = scratch;
+    let Scratch { crossed, component, n_components, face_parent, .. } = scratch;
+    face_parent.clear();
+    face_parent.extend(0..mesh.n_faces() as u32);
+    for &[g, h] in mesh.topology().edge_faces() {
+        if g != NO_FACE && h != NO_FACE && !crossed[g as usize] && !crossed[h as usize] {
+            union(face_parent, g, h);
+        }
+    }
     component.clear();
     component.resize(mesh.n_faces(), u32::MAX);
     let mut n = 0u32;
-    for start in 0..mesh.n_faces() {
-        if crossed[start] || component[start] != u32::MAX {
+    for f in 0..mesh.n_faces() {
+        if crossed[f] {
             continue;
         }
-        component[start] = n;
-        stack.clear();
-        stack.push(start as u32);
-        while let Some(f) = stack.pop() {
-            for &e in &face_edges[f as usize] {
-                let [g0, g1] = edge_faces[e as usize];
-                let g = if g0 == f { g1 } else { g0 };
-                if g != NO_FACE && !crossed[g as usize] && component[g as usize] == u32::MAX {
-                    component[g as usize] = n;
-                    stack.push(g);
-                }
-            }
-        }
-        n += 1;
+        let r = find(face_parent, f as u32) as usize;
+        component[f] = if r == f {
+            n += 1;
+            n - 1
+        } else {
+            component[r]
+        };
     }
     *n_components = n;
 }
