@@ -6,7 +6,7 @@
 //! threads split between them, and `OUT/phase2` becomes the selected network of the run
 //! with the best selection score (`[train] select_every`; `OUT/seeds.csv`). The seed moves a
 //! network's rollouts far more than most recipe changes do, and the selection score, a
-//! rollout on the training motions, ranks networks as the test motions do.
+//! rollout on the training motions, ranks networks much as the test motions do.
 //!
 //! The config is resolved first (its `extends` chain merged, `--seed` and each `--set`
 //! applied, every key checked) and written to `OUT/config.toml`, with its paths rewritten
