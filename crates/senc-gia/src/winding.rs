@@ -498,7 +498,9 @@ pub(crate) fn classify(
         // each ray fixes the offset of the whole group. A probe point is computed in floating
         // point, so where another face is coplanar with its own (grid-snapped meshes) the
         // rounding, not the perturbation that decided the crossings, can put it on the wrong
-        // side of that face and the count is off by one. So the first two probes that give a
+        // side of that face and the count is off by one. A ray whose line meets a face
+        // exactly coplanar with the probe's is refused (`ray_winding`); a face nearly
+        // coplanar can still mislead a probe. So the first two probes that give a
         // count must agree (a group with a single probe takes its count); where they differ
         // the group is skipped as unresolved: a vote among further probes was measured to
         // pick the wrong count on such meshes (libigl comparison in `reports/gia/`).

@@ -82,19 +82,42 @@ fn triangle_crossing(p: [Vec3; 3], idx: [u32; 3], n_vertices: u32, ray: &AxisRay
     Some(if so == Ordering::Greater { 1 } else { -1 })
 }
 
+/// Whether face `f` lies exactly in the plane of face `skip` and the ray's line passes
+/// through it. The origin is a rounded point of `skip`'s plane, so the side of `f` it lies
+/// on is rounding, not the perturbation that decided the crossings: such a ray is refused.
+fn meets_coplanar(mesh: &TriMesh, ray: &AxisRay, far: Vec3, skip: u32, f: usize) -> bool {
+    if skip == u32::MAX || skip as usize == f {
+        return false;
+    }
+    let [a, b, c] = mesh.triangle(skip as usize);
+    let [pa, pb, pc] = mesh.triangle(f);
+    if ![pa, pb, pc].iter().all(|&p| orient3d_value(a, b, c, p) == 0.0) {
+        return false;
+    }
+    let [ia, ib, ic] = mesh.faces()[f];
+    let (io, ifar) = (mesh.n_vertices() as u32, mesh.n_vertices() as u32 + 1);
+    let q = ray.origin;
+    let e1 = orient3d_sos([q, far, pa, pb], [io, ifar, ia, ib]);
+    e1 == orient3d_sos([q, far, pb, pc], [io, ifar, ib, ic]) && e1 == orient3d_sos([q, far, pc, pa], [io, ifar, ic, ia])
+}
+
 /// The signed crossing count of `ray` with every face of `mesh` except `skip` (pass
 /// `u32::MAX` to count all), by testing every face. Reference for
 /// [`SelfIntersector::ray_winding`]. `None` when the origin lies exactly on a face the ray
 /// passes through (the count would then depend on the perturbation alone, not on which side
-/// of that face the origin's own surface is): choose another origin. Virtual fans over
+/// of that face the origin's own surface is), or when the ray's line passes through a face
+/// exactly coplanar with `skip` (the origin, a rounded point of `skip`, lies on a side of
+/// that face by rounding): choose another origin. Virtual fans over
 /// `open_loops` count as faces (see [`SelfIntersector::ray_winding`]).
 pub fn ray_winding_brute(mesh: &TriMesh, ray: &AxisRay, skip: u32, open_loops: &[Vec<u32>]) -> Option<i64> {
     let ax = ray.axis;
     let (lo, hi) =
         mesh.positions().iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p[ax]), h.max(p[ax])));
     let far = ray.far_end(lo, hi);
-    let faces: Option<i64> =
-        (0..mesh.n_faces()).filter(|&f| f as u32 != skip).map(|f| face_crossing(mesh, ray, far, f)).sum();
+    let faces: Option<i64> = (0..mesh.n_faces())
+        .filter(|&f| f as u32 != skip)
+        .map(|f| if meets_coplanar(mesh, ray, far, skip, f) { None } else { face_crossing(mesh, ray, far, f) })
+        .sum();
     Some(faces? + fan_crossings(mesh, ray, far, open_loops)?)
 }
 
@@ -147,6 +170,9 @@ impl SelfIntersector {
                 for slot in nd.a as usize..nd.b as usize {
                     let f = self.tree.order[slot];
                     if f != skip && ray.may_hit(&self.boxes[slot]) {
+                        if meets_coplanar(mesh, ray, far, skip, f as usize) {
+                            return None;
+                        }
                         count += face_crossing(mesh, ray, far, f as usize)?;
                     }
                 }

@@ -431,6 +431,47 @@ fn rays_count_virtual_fans_over_open_holes() {
 }
 
 #[test]
+fn rays_from_a_face_through_an_exactly_coplanar_face_are_refused() {
+    // Two overlapping triangles exactly in the plane z = x + 2y (dyadic coordinates) and a
+    // third one above: from the first face's centroid, rounded off that plane, the line
+    // meets the coplanar second face, on whose side the origin lies by rounding; the ray is
+    // refused, from either face, through the tree or not. With the second face lifted by
+    // 1e-9 it is crossed like any other.
+    for lift in [0.0, 1e-9] {
+        let pos = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.125, 1.25),
+            Vec3::new(0.125, 0.875, 1.875),
+            Vec3::new(0.125, 0.125, 0.375 + lift),
+            Vec3::new(1.125, 0.25, 1.625 + lift),
+            Vec3::new(0.25, 1.0, 2.25 + lift),
+            Vec3::new(-1.0, -1.0, 5.0),
+            Vec3::new(3.0, -1.0, 5.0),
+            Vec3::new(-1.0, 3.0, 5.0),
+        ];
+        let m = TriMesh::new(pos, vec![[0, 1, 2], [3, 4, 5], [6, 7, 8]]).unwrap();
+        let mut ix = SelfIntersector::new(&m);
+        ix.find(&m);
+        for skip in [0u32, 1] {
+            let [a, b, c] = m.triangle(skip as usize);
+            let origin = (a + b + c) / 3.0;
+            assert_ne!(orient3d_value(a, b, c, origin), 0.0, "the centroid is rounded off the plane");
+            let ray = AxisRay { origin, axis: 2, positive: true };
+            let brute = ray_winding_brute(&m, &ray, skip, &[]);
+            assert_eq!(ix.ray_winding(&m, &ray, skip, &[]), brute);
+            if lift == 0.0 {
+                assert_eq!(brute, None, "face {skip}");
+            } else {
+                // Up from face 0 the ray crosses face 1 and the top face; from face 1 only
+                // the top face (face 0 lies below it).
+                let expect = if skip == 0 { 2 } else { 1 };
+                assert_eq!(brute, Some(expect), "face {skip}");
+            }
+        }
+    }
+}
+
+#[test]
 fn normal_cones_bound_every_normal_they_hold() {
     // Unit normals scattered around random axes at random spreads, merged pairwise up a
     // balanced tree as the refit merges them: every normal of a subtree must satisfy the
