@@ -61,13 +61,7 @@ fn triangle_crossing(p: [Vec3; 3], idx: [u32; 3], n_vertices: u32, ray: &AxisRay
     let [pa, pb, pc] = p;
     let (io, ifar) = (n_vertices, n_vertices + 1);
     let q = ray.origin;
-    let e1 = orient3d_sos([q, far, pa, pb], [io, ifar, ia, ib]);
-    let e2 = orient3d_sos([q, far, pb, pc], [io, ifar, ib, ic]);
-    if e1 != e2 {
-        return Some(0);
-    }
-    let e3 = orient3d_sos([q, far, pc, pa], [io, ifar, ic, ia]);
-    if e1 != e3 {
+    if !line_meets_triangle(p, idx, n_vertices, ray, far) {
         return Some(0);
     }
     if orient3d_value(pa, pb, pc, q) == 0.0 {
@@ -94,8 +88,15 @@ fn meets_coplanar(mesh: &TriMesh, ray: &AxisRay, far: Vec3, skip: u32, f: usize)
     if ![pa, pb, pc].iter().all(|&p| orient3d_value(a, b, c, p) == 0.0) {
         return false;
     }
-    let [ia, ib, ic] = mesh.faces()[f];
-    let (io, ifar) = (mesh.n_vertices() as u32, mesh.n_vertices() as u32 + 1);
+    line_meets_triangle([pa, pb, pc], mesh.faces()[f], mesh.n_vertices() as u32, ray, far)
+}
+
+/// Whether the line through the ray's origin and far end passes through the triangle
+/// (exact, with symbolic perturbation; the origin and far end take indices `n_vertices`
+/// and `n_vertices + 1`).
+fn line_meets_triangle(p: [Vec3; 3], idx: [u32; 3], n_vertices: u32, ray: &AxisRay, far: Vec3) -> bool {
+    let ([pa, pb, pc], [ia, ib, ic]) = (p, idx);
+    let (io, ifar) = (n_vertices, n_vertices + 1);
     let q = ray.origin;
     let e1 = orient3d_sos([q, far, pa, pb], [io, ifar, ia, ib]);
     e1 == orient3d_sos([q, far, pb, pc], [io, ifar, ib, ic]) && e1 == orient3d_sos([q, far, pc, pa], [io, ifar, ic, ia])
