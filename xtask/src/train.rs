@@ -235,17 +235,22 @@ mod seeds {
             write_table(out, &rows, None)?;
             bail!("no seed's network was admissible for selection (see OUT/seed-S/selection.csv)");
         };
-        let target = out.join("phase2");
-        if target.exists() {
-            std::fs::remove_dir_all(&target).with_context(|| format!("removing {}", target.display()))?;
+        // Copied under a temporary name and renamed, so OUT/phase2 is never half written.
+        let (target, tmp) = (out.join("phase2"), out.join(".phase2.tmp"));
+        for d in [&tmp, &target] {
+            if d.exists() {
+                std::fs::remove_dir_all(d).with_context(|| format!("removing {}", d.display()))?;
+            }
         }
-        std::fs::create_dir_all(&target)?;
+        std::fs::create_dir_all(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
         let from = dir.join("phase2");
         for entry in std::fs::read_dir(&from).with_context(|| format!("reading {}", from.display()))? {
             let entry = entry?;
-            std::fs::copy(entry.path(), target.join(entry.file_name()))
+            std::fs::copy(entry.path(), tmp.join(entry.file_name()))
                 .with_context(|| format!("copying {}", entry.path().display()))?;
         }
+        std::fs::rename(&tmp, &target)
+            .with_context(|| format!("renaming {} to {}", tmp.display(), target.display()))?;
         write_table(out, &rows, Some(seed))?;
         println!(
             "training finished in {:.1} s; seed {seed} scored best ({score:.2} cm): {} is a copy of {} (scores in {})",
