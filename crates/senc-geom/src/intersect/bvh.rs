@@ -230,7 +230,7 @@ pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Ve
     let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 2);
     if n > 0 {
         // The faces sorted along each axis once (keys computed once, sorted with their
-        // faces); every split keeps each list sorted per node.
+        // faces); each split reads its faces' order along its axis from their ranks.
         let sorted_along = |axis: usize| {
             let keys: Vec<u64> = (0..n as u32).map(|f| axis_key(centroids, axis, f).0).collect();
             radix_order(&keys)
@@ -242,9 +242,8 @@ pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Ve
                 rank[f as usize][axis] = r as u32;
             }
         }
-        let (mut xs, mut ys, mut zs) = (x.clone(), y.clone(), z.clone());
         let mut b = Builder::new(nbrs, centroids, &rank, [&x, &y, &z], 0);
-        b.node(&mut nodes, &mut order, &mut [&mut xs[..], &mut ys[..], &mut zs[..]], 0, n, par);
+        b.node(&mut nodes, &mut order, 0, n, par);
     }
     (nodes, order)
 }
@@ -614,8 +613,11 @@ pub(super) struct Builder<'a> {
     pub(super) mark: Vec<u32>,
     /// Per face: the node whose growing split has queued it.
     pub(super) queued: Vec<u32>,
-    /// Scratch of [`Self::partition`].
-    pub(super) scratch: Vec<u32>,
+    /// One bit per rank along the split axis: the faces of the node being split that are
+    /// not (yet) in its first half (see [`Self::grow_split`]); all clear between splits.
+    pub(super) rest: Vec<u64>,
+    /// The words of `rest` over the node's ranks before the split (all its faces).
+    pub(super) all: Vec<u64>,
     /// Ranks along the split axis of the faces queued by [`Self::grow_split`].
     pub(super) queue: RankQueue,
     pub(super) strays: [Vec<usize>; 2],
@@ -627,6 +629,68 @@ pub(super) struct Builder<'a> {
     /// [`Self::swap_strays`]), and per face the node whose split has listed it.
     pub(super) cut: Vec<u32>,
     pub(super) cut_stamp: Vec<u32>,
+    /// Per face: `SMALL_MAX × (root node) + index` within the small subtree being built
+    /// (see [`Self::small_subtree`]).
+    pub(super) small_index: Vec<u64>,
+    /// Scratch of [`Self::small_subtree`].
+    pub(super) small: Box<SmallSubtree>,
+}
+
+/// Largest subtree (in faces) that [`Builder::small_subtree`] builds on bit masks.
+pub(super) const SMALL_MAX: usize = 64;
+
+/// A set of at most [`SMALL_MAX`] faces of a small subtree, one bit each.
+type SmallSet = u64;
+
+/// The faces of a small subtree (at most [`SMALL_MAX`]) indexed `0..m`, and per axis their
+/// order along it: sets of faces along an axis are bit masks over positions in that order,
+/// so the smallest face of a set is its lowest bit.
+pub(super) struct SmallSubtree {
+    /// Index → face.
+    faces: [u32; SMALL_MAX],
+    /// Per axis: position → index, and index → position (in the order of [`axis_key`]).
+    at: [[u8; SMALL_MAX]; 3],
+    pos: [[u8; SMALL_MAX]; 3],
+    /// Per axis and position: the positions of the face's edge neighbours in the subtree.
+    nbrs: [[SmallSet; SMALL_MAX]; 3],
+}
+
+impl SmallSubtree {
+    fn new() -> Box<Self> {
+        Box::new(SmallSubtree {
+            faces: [0; SMALL_MAX],
+            at: [[0; SMALL_MAX]; 3],
+            pos: [[0; SMALL_MAX]; 3],
+            nbrs: [[0; SMALL_MAX]; 3],
+        })
+    }
+
+    /// `set` (indices) as positions along `axis`.
+    #[inline]
+    fn along(&self, axis: usize, set: SmallSet) -> SmallSet {
+        bits(set).fold(0, |acc, i| acc | 1 << self.pos[axis][i])
+    }
+}
+
+/// The number of bits set in `set`, or 3 when there are more (a face has at most three
+/// neighbours; without a population count instruction on the baseline x86-64 target).
+#[inline]
+fn few(set: SmallSet) -> u32 {
+    let rest = set & set.wrapping_sub(1);
+    let rest2 = rest & rest.wrapping_sub(1);
+    (set != 0) as u32 + (rest != 0) as u32 + (rest2 != 0) as u32
+}
+
+/// The set bits of `set`, lowest first.
+#[inline]
+fn bits(mut set: SmallSet) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (set != 0).then(|| {
+            let i = set.trailing_zeros() as usize;
+            set &= set - 1;
+            i
+        })
+    })
 }
 
 impl<'a> Builder<'a> {
@@ -646,7 +710,8 @@ impl<'a> Builder<'a> {
             base,
             mark: vec![u32::MAX; n],
             queued: vec![u32::MAX; n],
-            scratch: Vec::new(),
+            rest: vec![0; n.div_ceil(64)],
+            all: Vec::new(),
             queue: RankQueue::new(n),
             strays: [Vec::new(), Vec::new()],
             notches: [Vec::new(), Vec::new()],
@@ -654,6 +719,8 @@ impl<'a> Builder<'a> {
             slot_of: vec![0; n],
             cut: Vec::new(),
             cut_stamp: vec![u32::MAX; n],
+            small_index: vec![u64::MAX; n],
+            small: SmallSubtree::new(),
         }
     }
 
@@ -670,55 +737,35 @@ impl<'a> Builder<'a> {
     /// strays of the other side that have an edge neighbour there, so that more nodes are
     /// topological disks (see [`disk_patches`]); the sizes of both sides are unchanged.
     ///
-    /// At the first `par` levels, nodes of at least [`PAR_BUILD_MIN`] faces build their
-    /// second half on another thread (rayon); the tree is the same as without.
-    pub(super) fn node(
-        &mut self,
-        nodes: &mut Vec<Node>,
-        order: &mut [u32],
-        lists: &mut [&mut [u32]; 3],
-        lo: usize,
-        hi: usize,
-        par: u32,
-    ) -> u32 {
+    /// Subtrees of at most [`SMALL_MAX`] faces are built by [`Self::small_subtree`] (the
+    /// same splits, on bit masks). At the first `par` levels, nodes of at least
+    /// [`PAR_BUILD_MIN`] faces build their second half on another thread (rayon); the tree
+    /// is the same as without.
+    pub(super) fn node(&mut self, nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize, par: u32) -> u32 {
         let id = nodes.len();
         nodes.push(Node { bbox: Aabb3::EMPTY, a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true });
         if hi - lo <= LEAF_SIZE {
             return id as u32;
         }
-        // Each list is sorted along its axis: its ends are the extreme centroids.
-        let centroids = self.centroids;
-        let extent = |ax: usize| centroids[lists[ax][hi - 1] as usize][ax] - centroids[lists[ax][lo] as usize][ax];
-        let ext = Vec3::new(extent(0), extent(1), extent(2));
-        let axis = if ext.x >= ext.y && ext.x >= ext.z {
-            0
-        } else if ext.y >= ext.z {
-            1
-        } else {
-            2
-        };
+        if hi - lo <= SMALL_MAX {
+            nodes.pop();
+            return self.small_subtree(nodes, order, lo, hi);
+        }
+        let (axis, ranks) = self.split_axis(&order[lo..hi]);
         let n_leaves = (hi - lo).div_ceil(LEAF_SIZE);
         let mid = lo + (n_leaves / 2) * LEAF_SIZE;
-        self.grow_split(order, &lists[axis][lo..hi], lo, mid, axis, id as u32);
+        self.grow_split(order, [lo, mid, hi], axis, ranks, id as u32);
         self.swap_strays(order, lo, mid, hi, id as u32);
-        for list in lists.iter_mut() {
-            self.partition(&mut list[lo..hi], 2 * id as u32);
-        }
         let (l, r) = if par > 0 && hi - lo >= PAR_BUILD_MIN {
             // The second half on another thread, into its own node list and scratch (the
             // halves share no face), appended after the first half's subtree: the same
             // tree, numbered as the sequential build numbers it.
             let (first, second) = order[..hi].split_at_mut(mid);
-            let [x, y, z] = lists.each_mut().map(|l| {
-                let list: &mut [u32] = std::mem::take(l);
-                list[..hi].split_at_mut(mid)
-            });
-            let (mut first_lists, mut second_lists) = ([x.0, y.0, z.0], [x.1, y.1, z.1]);
             let mut other = Builder::new(self.nbrs, self.centroids, self.rank, self.by_rank, self.base + mid);
             let mut second_nodes = Vec::with_capacity(2 * (hi - mid) / LEAF_SIZE + 2);
             let (l, r) = rayon::join(
-                || self.node(nodes, first, &mut first_lists, lo, mid, par - 1),
-                || other.node(&mut second_nodes, second, &mut second_lists, 0, hi - mid, par - 1),
+                || self.node(nodes, first, lo, mid, par - 1),
+                || other.node(&mut second_nodes, second, 0, hi - mid, par - 1),
             );
             let offset = nodes.len() as u32;
             nodes.extend(second_nodes.into_iter().map(|nd| {
@@ -730,50 +777,224 @@ impl<'a> Builder<'a> {
             }));
             (l, r + offset)
         } else {
-            (self.node(nodes, order, lists, lo, mid, 0), self.node(nodes, order, lists, mid, hi, 0))
+            (self.node(nodes, order, lo, mid, 0), self.node(nodes, order, mid, hi, 0))
         };
         nodes[id] = Node { bbox: Aabb3::EMPTY, a: l, b: r, leaf: false };
         id as u32
     }
 
-    /// Splits `order[lo..hi]` (also given as `sorted`, the same faces sorted by
-    /// [`axis_key`] along `axis`) into a first part of `mid − lo` faces grown face by face
-    /// across edges from the face with the smallest centroid coordinate along `axis`, always
-    /// taking the queued face that is smallest along `axis` (so the cut follows the median
-    /// plane, as in a median split, while the first part stays edge-connected where the
-    /// faces allow); when the queue runs dry (another component), growth restarts from the
-    /// smallest face not taken.
+    /// Builds the subtree over `order[lo..hi]` (at most [`SMALL_MAX`] faces) as
+    /// [`Self::node`] does, on bit masks over its faces ([`SmallSubtree`]): the growing
+    /// split pops the lowest bit of the queue, and the stray swaps count neighbours on each
+    /// side by population counts.
+    pub(super) fn small_subtree(&mut self, nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize) -> u32 {
+        let m = hi - lo;
+        let root = nodes.len() as u64;
+        let sm = &mut *self.small;
+        sm.faces[..m].copy_from_slice(&order[lo..hi]);
+        for (i, &f) in order[lo..hi].iter().enumerate() {
+            self.small_index[f as usize] = root * SMALL_MAX as u64 + i as u64;
+        }
+        let mut keys = [0u64; SMALL_MAX];
+        for axis in 0..3 {
+            for (k, &f) in keys.iter_mut().zip(&sm.faces[..m]) {
+                *k = u64::from(self.rank[f as usize][axis]) * SMALL_MAX as u64;
+            }
+            for (i, k) in keys[..m].iter_mut().enumerate() {
+                *k += i as u64;
+            }
+            keys[..m].sort_unstable();
+            for (p, k) in keys[..m].iter().enumerate() {
+                let i = (k % SMALL_MAX as u64) as usize;
+                sm.at[axis][p] = i as u8;
+                sm.pos[axis][i] = p as u8;
+            }
+        }
+        for i in 0..m {
+            let mut local = [SmallSet::default(); 3];
+            for g in self.nbrs[sm.faces[i] as usize] {
+                if g == NO_FACE {
+                    continue;
+                }
+                let key = self.small_index[g as usize];
+                if key / SMALL_MAX as u64 == root {
+                    let j = (key % SMALL_MAX as u64) as usize;
+                    for (axis, l) in local.iter_mut().enumerate() {
+                        *l |= 1 << sm.pos[axis][j];
+                    }
+                }
+            }
+            for (axis, l) in local.into_iter().enumerate() {
+                sm.nbrs[axis][sm.pos[axis][i] as usize] = l;
+            }
+        }
+        let all = if m == SMALL_MAX { SmallSet::MAX } else { (1 << m) - 1 };
+        self.small_node(nodes, order, lo, hi, all)
+    }
+
+    /// The node over `order[lo..hi]`, whose faces are the indices in `set` (see
+    /// [`Self::small_subtree`]).
+    fn small_node(&mut self, nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize, set: SmallSet) -> u32 {
+        let id = nodes.len();
+        nodes.push(Node { bbox: Aabb3::EMPTY, a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true });
+        if hi - lo <= LEAF_SIZE {
+            return id as u32;
+        }
+        let sm = &*self.small;
+        let along = [sm.along(0, set), sm.along(1, set), sm.along(2, set)];
+        // The extreme positions along each axis hold the extreme coordinates.
+        let coord = |ax: usize, p: u32| self.centroids[sm.faces[sm.at[ax][p as usize] as usize] as usize][ax];
+        let ext = Vec3::from_fn(|ax, _| {
+            coord(ax, SmallSet::BITS - 1 - along[ax].leading_zeros()) - coord(ax, along[ax].trailing_zeros())
+        });
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
+        let n_leaves = (hi - lo).div_ceil(LEAF_SIZE);
+        let mid = lo + (n_leaves / 2) * LEAF_SIZE;
+        // The growing split (as in `grow_split`), in positions along `axis`.
+        let nbrs = &sm.nbrs[axis];
+        let (mut rest, mut first, mut queue) = (along[axis], 0 as SmallSet, 0 as SmallSet);
+        for _ in lo..mid {
+            let p = if queue != 0 { queue.trailing_zeros() } else { rest.trailing_zeros() };
+            first |= 1 << p;
+            rest &= !(1 << p);
+            queue = (queue | nbrs[p as usize]) & rest;
+        }
+        // Each part's positions in slot order, and the stray swaps (as in `swap_strays`).
+        let mut slots = [[0u8; SMALL_MAX]; 2];
+        for (side, part) in [first, rest].into_iter().enumerate() {
+            for (k, p) in bits(part).enumerate() {
+                slots[side][k] = p as u8;
+            }
+        }
+        let mut sides = [first, rest];
+        let lens = [mid - lo, hi - mid];
+        let (mut strays, mut notches) = ([[0u8; SMALL_MAX]; 2], [[0u8; SMALL_MAX]; 2]);
+        for _ in 0..2 {
+            let mut counts = [[0usize; 2]; 2];
+            for side in 0..2 {
+                let (own, other) = (sides[side], sides[1 - side]);
+                for (k, &p) in slots[side][..lens[side]].iter().enumerate() {
+                    let n = nbrs[p as usize];
+                    match (few(n & own), few(n & other)) {
+                        (0, o) if o > 0 => {
+                            strays[side][counts[side][0]] = k as u8;
+                            counts[side][0] += 1;
+                        }
+                        (1, 2) => {
+                            notches[side][counts[side][1]] = k as u8;
+                            counts[side][1] += 1;
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            let [sl, sr] = [counts[0][0], counts[1][0]];
+            if sl + sr == 0 {
+                break;
+            }
+            let m = sl.min(sr);
+            let pairs = strays[0][..m]
+                .iter()
+                .zip(&strays[1][..m])
+                .chain(strays[0][m..sl].iter().zip(&notches[1][..counts[1][1]]))
+                .chain(notches[0][..counts[0][1]].iter().zip(&strays[1][m..sr]));
+            for (&a, &b) in pairs {
+                let (a, b) = (a as usize, b as usize);
+                let (pa, pb) = (slots[0][a], slots[1][b]);
+                (slots[0][a], slots[1][b]) = (pb, pa);
+                sides[0] = sides[0] & !(1 << pa) | 1 << pb;
+                sides[1] = sides[1] & !(1 << pb) | 1 << pa;
+            }
+        }
+        let at = &sm.at[axis];
+        let mut children = [0 as SmallSet; 2];
+        for (side, start) in [lo, mid].into_iter().enumerate() {
+            for (k, &p) in slots[side][..lens[side]].iter().enumerate() {
+                let i = at[p as usize];
+                order[start + k] = sm.faces[i as usize];
+                children[side] |= 1 << i;
+            }
+        }
+        let l = self.small_node(nodes, order, lo, mid, children[0]);
+        let r = self.small_node(nodes, order, mid, hi, children[1]);
+        nodes[id] = Node { bbox: Aabb3::EMPTY, a: l, b: r, leaf: false };
+        id as u32
+    }
+
+    /// The axis along which the centroids of `faces` extend furthest (the first of equal
+    /// extents), and the smallest and largest rank of the faces along it.
+    pub(super) fn split_axis(&self, faces: &[u32]) -> (usize, [u32; 2]) {
+        let (mut first, mut last) = ([u32::MAX; 3], [0u32; 3]);
+        for &f in faces {
+            let r = self.rank[f as usize];
+            for ax in 0..3 {
+                first[ax] = first[ax].min(r[ax]);
+                last[ax] = last[ax].max(r[ax]);
+            }
+        }
+        // The faces of the extreme ranks have the extreme coordinates.
+        let (c, by_rank) = (self.centroids, self.by_rank);
+        let coord = |ax: usize, r: u32| c[by_rank[ax][r as usize] as usize][ax];
+        let ext = Vec3::from_fn(|ax, _| coord(ax, last[ax]) - coord(ax, first[ax]));
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            0
+        } else if ext.y >= ext.z {
+            1
+        } else {
+            2
+        };
+        (axis, [first[axis], last[axis]])
+    }
+
+    /// Splits `order[lo..hi]` (`[lo, mid, hi]`; `ranks`: the smallest and largest rank of
+    /// its faces along `axis`) into a first part of `mid − lo` faces grown face by face
+    /// across edges from the face with the smallest centroid coordinate along `axis`,
+    /// always taking the queued face that is smallest along `axis` (so the cut follows the
+    /// median plane, as in a median split, while the first part stays edge-connected where
+    /// the faces allow); when the queue runs dry (another component), growth restarts from
+    /// the smallest face not taken. Both parts are written in the order of [`axis_key`]
+    /// along `axis`, read from the rank bits of [`Self::rest`].
     pub(super) fn grow_split(
         &mut self,
         order: &mut [u32],
-        sorted: &[u32],
-        lo: usize,
-        mid: usize,
+        [lo, mid, hi]: [usize; 3],
         axis: usize,
+        [first, last]: [u32; 2],
         id: u32,
     ) {
         let nbrs = self.nbrs;
         let (rank, by_rank) = (self.rank, self.by_rank[axis]);
         let (unassigned, left) = (2 * id + 1, 2 * id);
-        for &f in sorted {
+        let words = first as usize / 64..last as usize / 64 + 1;
+        for &f in &order[lo..hi] {
             self.mark[f as usize] = unassigned;
+            let r = rank[f as usize][axis] as usize;
+            self.rest[r / 64] |= 1 << (r % 64);
         }
+        self.all.clear();
+        self.all.extend_from_slice(&self.rest[words.clone()]);
         self.queue.clear();
-        let (mut taken, mut next_seed) = (0, 0);
+        let (mut taken, mut seed_word) = (0, words.start);
         while taken < mid - lo {
-            let f = match self.queue.pop() {
-                Some(r) => by_rank[r as usize],
+            let r = match self.queue.pop() {
+                Some(r) => r as usize,
                 None => {
-                    while self.mark[sorted[next_seed] as usize] != unassigned {
-                        next_seed += 1;
+                    while self.rest[seed_word] == 0 {
+                        seed_word += 1;
                     }
-                    sorted[next_seed]
+                    seed_word * 64 + self.rest[seed_word].trailing_zeros() as usize
                 }
             };
-            if self.mark[f as usize] != unassigned {
-                continue;
-            }
+            let f = by_rank[r];
+            debug_assert_eq!(self.mark[f as usize], unassigned);
             self.mark[f as usize] = left;
+            self.rest[r / 64] &= !(1 << (r % 64));
             taken += 1;
             for g in nbrs[f as usize] {
                 if g != NO_FACE && self.mark[g as usize] == unassigned && self.queued[g as usize] != id {
@@ -804,39 +1025,23 @@ impl<'a> Builder<'a> {
                 }
             }
         }
+        // Each part in rank order: the first part's ranks are the node's less `rest`.
         let (mut a, mut b) = (lo, mid);
-        for &f in sorted {
-            let slot = if self.mark[f as usize] == left {
-                a += 1;
-                a - 1
-            } else {
-                b += 1;
-                b - 1
-            };
-            order[slot] = f;
-            if self.cut_stamp[f as usize] == id {
-                self.slot_of[f as usize] = slot as u32;
+        for (k, w) in words.enumerate() {
+            let second = std::mem::take(&mut self.rest[w]);
+            for (mut bits, at) in [(self.all[k] & !second, &mut a), (second, &mut b)] {
+                while bits != 0 {
+                    let f = by_rank[w * 64 + bits.trailing_zeros() as usize];
+                    bits &= bits - 1;
+                    order[*at] = f;
+                    if self.cut_stamp[f as usize] == id {
+                        self.slot_of[f as usize] = *at as u32;
+                    }
+                    *at += 1;
+                }
             }
         }
-    }
-
-    /// Reorders `list` (a node's faces) so that the faces marked `left` come first, keeping
-    /// the order within each part: a list sorted along an axis stays sorted in both halves.
-    pub(super) fn partition(&mut self, list: &mut [u32], left: u32) {
-        // Without branches: every face is written to both parts, and only its own part's
-        // end moves on (`k ≤ i`, so the in-place writes never pass the reads).
-        self.scratch.clear();
-        self.scratch.resize(list.len(), 0);
-        let (mut k, mut r) = (0, 0);
-        for i in 0..list.len() {
-            let f = list[i];
-            let is_left = (self.mark[f as usize] == left) as usize;
-            list[k] = f;
-            self.scratch[r] = f;
-            k += is_left;
-            r += 1 - is_left;
-        }
-        list[k..].copy_from_slice(&self.scratch[..r]);
+        debug_assert_eq!((a, b), (mid, hi));
     }
 
     /// Expects the marks [`Self::grow_split`] leaves: `2 id` on `order[lo..mid]`,

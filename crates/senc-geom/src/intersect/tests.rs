@@ -298,6 +298,123 @@ fn parallel_tree_build_gives_the_sequential_tree() {
     assert_eq!(shape(&seq_nodes), shape(&par_nodes));
 }
 
+/// The tree of [`build_tree`], built the plain way: each node's faces sorted along every
+/// axis by [`axis_key`], the first half grown across edges from the smallest face (the
+/// queued face smallest along the axis first), then every face of the node counted for
+/// the stray swaps.
+fn reference_tree(centroids: &[Vec3], nbrs: &[[u32; 3]]) -> (Vec<(u32, u32, bool)>, Vec<u32>) {
+    fn node(
+        centroids: &[Vec3],
+        nbrs: &[[u32; 3]],
+        nodes: &mut Vec<(u32, u32, bool)>,
+        order: &mut [u32],
+        lo: usize,
+        hi: usize,
+    ) -> u32 {
+        let id = nodes.len();
+        nodes.push((lo as u32, hi as u32, true));
+        if hi - lo <= LEAF_SIZE {
+            return id as u32;
+        }
+        let sorted = |ax: usize| {
+            let mut faces = order[lo..hi].to_vec();
+            faces.sort_by_key(|&f| axis_key(centroids, ax, f));
+            faces
+        };
+        let lists = [sorted(0), sorted(1), sorted(2)];
+        let ext = |ax: usize| centroids[*lists[ax].last().unwrap() as usize][ax] - centroids[lists[ax][0] as usize][ax];
+        let axis = if ext(0) >= ext(1) && ext(0) >= ext(2) {
+            0
+        } else if ext(1) >= ext(2) {
+            1
+        } else {
+            2
+        };
+        let sorted = &lists[axis];
+        let mid = lo + ((hi - lo).div_ceil(LEAF_SIZE) / 2) * LEAF_SIZE;
+        // Side per face of the node: 0 first half, 1 second half.
+        let mut side: std::collections::HashMap<u32, u32> = sorted.iter().map(|&f| (f, 1)).collect();
+        let mut queue = std::collections::BTreeSet::new();
+        let mut queued = std::collections::HashSet::new();
+        let mut taken = 0;
+        while taken < mid - lo {
+            let f = match queue.pop_first() {
+                Some((_, f)) => f,
+                None => *sorted.iter().find(|&&f| side[&f] == 1).unwrap(),
+            };
+            side.insert(f, 0);
+            taken += 1;
+            for g in nbrs[f as usize] {
+                if side.get(&g) == Some(&1) && queued.insert(g) {
+                    queue.insert((axis_key(centroids, axis, g), g));
+                }
+            }
+        }
+        let (left, right): (Vec<u32>, Vec<u32>) = sorted.iter().partition(|&&f| side[&f] == 0);
+        order[lo..mid].copy_from_slice(&left);
+        order[mid..hi].copy_from_slice(&right);
+        for _ in 0..2 {
+            let (mut strays, mut notches) = ([vec![], vec![]], [vec![], vec![]]);
+            for slot in lo..hi {
+                let f = order[slot];
+                let own = side[&f];
+                let on = |s: u32| nbrs[f as usize].iter().filter(|g| side.get(g) == Some(&s)).count();
+                let k = (slot >= mid) as usize;
+                match (on(own), on(1 - own)) {
+                    (0, o) if o > 0 => strays[k].push(slot),
+                    (1, 2) => notches[k].push(slot),
+                    _ => {}
+                }
+            }
+            let m = strays[0].len().min(strays[1].len());
+            if strays[0].len() + strays[1].len() == 0 {
+                break;
+            }
+            let pairs: Vec<(usize, usize)> = strays[0]
+                .iter()
+                .copied()
+                .zip(strays[1].iter().copied())
+                .chain(strays[0][m..].iter().copied().zip(notches[1].iter().copied()))
+                .chain(notches[0].iter().copied().zip(strays[1][m..].iter().copied()))
+                .collect();
+            for (a, b) in pairs {
+                order.swap(a, b);
+                side.insert(order[a], 0);
+                side.insert(order[b], 1);
+            }
+        }
+        let l = node(centroids, nbrs, nodes, order, lo, mid);
+        let r = node(centroids, nbrs, nodes, order, mid, hi);
+        nodes[id] = (l, r, false);
+        id as u32
+    }
+    let mut order: Vec<u32> = (0..centroids.len() as u32).collect();
+    let mut nodes = Vec::new();
+    if !order.is_empty() {
+        node(centroids, nbrs, &mut nodes, &mut order, 0, centroids.len());
+    }
+    (nodes, order)
+}
+
+#[test]
+fn tree_build_gives_the_reference_tree() {
+    let meshes = [
+        shapes::garment_benchmark().unwrap(),
+        shapes::fixture("sleeve_torso_grid").unwrap(),
+        shapes::jitter(&shapes::torus(1.0, 0.3, 40, 16).unwrap(), 0.01, 3).unwrap(),
+        shapes::folded_sheet(1.0, 24).unwrap(),
+        shapes::grid_box(Vec3::zeros(), Vec3::new(1.0, 2.0, 0.5), 7).unwrap(),
+    ];
+    for m in &meshes {
+        let centroids: Vec<Vec3> = (0..m.n_faces()).map(|f| m.triangle(f).iter().sum::<Vec3>() / 3.0).collect();
+        let nbrs = face_neighbours(m);
+        let (nodes, order) = build_tree(&centroids, &nbrs, PAR_BUILD_DEPTH);
+        let (ref_nodes, ref_order) = reference_tree(&centroids, &nbrs);
+        assert_eq!(order, ref_order);
+        assert_eq!(nodes.iter().map(|nd| (nd.a, nd.b, nd.leaf)).collect::<Vec<_>>(), ref_nodes);
+    }
+}
+
 #[test]
 fn grown_splits_make_most_nodes_disks() {
     // A sleeve pushed into a torso (grid-made): with halves grown across edges, 85% of
