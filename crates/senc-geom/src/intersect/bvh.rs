@@ -2,12 +2,16 @@
 //! of four faces, the tree build (connected halves) and refit, and [`SelfIntersector`].
 
 use super::*;
+use std::sync::{Mutex, PoisonError};
 
 /// Levels of the tree build whose two halves are built in parallel (see [`Builder::node`]).
-pub(super) const PAR_BUILD_DEPTH: u32 = 2;
+pub(super) const PAR_BUILD_DEPTH: u32 = 3;
 
 /// Smallest node (in faces) whose halves are built in parallel.
 pub(super) const PAR_BUILD_MIN: usize = 2048;
+
+/// Fewest items per task of the parallel loops over faces in the tree build and the refit.
+pub(super) const PAR_MIN_ITEMS: usize = 2048;
 
 /// Faces per BVH leaf. Leaves of a few faces keep the tree shallow; the face pairs inside
 /// a leaf pair are still each checked against their boxes before any other work.
@@ -227,7 +231,7 @@ pub(crate) struct SearchTree {
 pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Vec<Node>, Vec<u32>) {
     let n = centroids.len();
     let mut order: Vec<u32> = (0..n as u32).collect();
-    let mut nodes = Vec::with_capacity(2 * n / LEAF_SIZE + 2);
+    let mut nodes = Vec::new();
     if n > 0 {
         // The faces sorted along each axis once (keys computed once, sorted with their
         // faces); each split reads its faces' order along its axis from their ranks.
@@ -242,10 +246,21 @@ pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Ve
                 rank[f as usize][axis] = r as u32;
             }
         }
+        let spare = Mutex::new(Vec::new());
         let mut b = Builder::new(nbrs, centroids, &rank, [&x, &y, &z], 0);
-        b.node(&mut nodes, &mut order, 0, n, par);
+        nodes = vec![Node { bbox: Aabb3::EMPTY, a: 0, b: 0, leaf: true }; subtree_nodes(n)];
+        b.node(&mut nodes, 0, &mut order, 0, n, par, &spare);
     }
     (nodes, order)
+}
+
+/// The number of nodes of the tree over `m > 0` faces: `2 ⌈m / LEAF_SIZE⌉ − 1`. A node
+/// of at most [`LEAF_SIZE`] faces is a leaf, and a split gives its first half
+/// `⌊l / 2⌋` of its `l = ⌈m / LEAF_SIZE⌉` leaves' worth of faces (a multiple of
+/// `LEAF_SIZE`), so the halves have `⌊l / 2⌋` and `l − ⌊l / 2⌋` leaves: `l` leaves in all,
+/// joined by `l − 1` splits.
+pub(super) fn subtree_nodes(m: usize) -> usize {
+    2 * m.div_ceil(LEAF_SIZE) - 1
 }
 
 /// The indices `0..keys.len()` sorted by `(keys[i], i)`: a stable least-significant-digit
@@ -294,16 +309,27 @@ impl SearchTree {
     /// Builds the tree over `mesh`'s faces at its current positions.
     fn build(mesh: &TriMesh) -> Self {
         let n = mesh.n_faces();
-        let centroids: Vec<Vec3> = (0..mesh.n_faces())
-            .map(|f| {
-                let [a, b, c] = mesh.triangle(f);
-                (a + b + c) / 3.0
-            })
-            .collect();
-        let nbrs = face_neighbours(mesh);
         // The tree on one side, the vertex rings (topology only) on the other.
-        let ((nodes, order), ((ring_kind, (ring_start, ring_links), pinched), faces)) = rayon::join(
-            || build_tree(&centroids, &nbrs, PAR_BUILD_DEPTH),
+        let ((nodes, order, nbrs), ((ring_kind, (ring_start, ring_links), pinched), faces)) = rayon::join(
+            || {
+                let (centroids, nbrs) = rayon::join(
+                    || {
+                        let mut c = Vec::with_capacity(n);
+                        (0..n)
+                            .into_par_iter()
+                            .with_min_len(PAR_MIN_ITEMS)
+                            .map(|f| {
+                                let [a, b, c] = mesh.triangle(f);
+                                (a + b + c) / 3.0
+                            })
+                            .collect_into_vec(&mut c);
+                        c
+                    },
+                    || face_neighbours(mesh),
+                );
+                let (nodes, order) = build_tree(&centroids, &nbrs, PAR_BUILD_DEPTH);
+                (nodes, order, nbrs)
+            },
             || {
                 let kinds = ring_kinds(mesh);
                 let (start, links) = ring_links(mesh);
@@ -315,15 +341,29 @@ impl SearchTree {
         for (slot, &f) in order.iter().enumerate() {
             slot_of[f as usize] = slot as u32;
         }
-        let slot_faces: Vec<[u32; 3]> = order.iter().map(|&f| faces[f as usize]).collect();
-        let slot_nbrs: Vec<[u32; 3]> = order
-            .iter()
-            .map(|&f| nbrs[f as usize].map(|g| if g == NO_FACE { NO_FACE } else { slot_of[g as usize] }))
-            .collect();
-        let DiskPatches { ranges: patch_ranges, edges: patch_edges, slots: node_slots } =
-            disk_patches(mesh.n_vertices(), &nodes, &slot_faces, &slot_nbrs, &ring_kind, &pinched);
+        let (mut slot_faces, mut slot_nbrs) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        rayon::join(
+            || {
+                order
+                    .par_iter()
+                    .with_min_len(PAR_MIN_ITEMS)
+                    .map(|&f| faces[f as usize])
+                    .collect_into_vec(&mut slot_faces)
+            },
+            || {
+                order
+                    .par_iter()
+                    .with_min_len(PAR_MIN_ITEMS)
+                    .map(|&f| nbrs[f as usize].map(|g| if g == NO_FACE { NO_FACE } else { slot_of[g as usize] }))
+                    .collect_into_vec(&mut slot_nbrs)
+            },
+        );
+        let (DiskPatches { ranges: patch_ranges, edges: patch_edges, slots: node_slots }, leaf_verts) = rayon::join(
+            || disk_patches(mesh.n_vertices(), &nodes, &slot_faces, &slot_nbrs, &ring_kind, &pinched),
+            || LeafVerts::of_slots(&slot_faces, &vec![0; n]),
+        );
         Self {
-            leaf_verts: Arc::new(LeafVerts::of_slots(&slot_faces, &vec![0; n])),
+            leaf_verts: Arc::new(leaf_verts),
             faces,
             nodes,
             order,
@@ -387,7 +427,9 @@ pub struct SelfIntersector {
     /// Whether some node has a nonzero group (otherwise the traversal skips the checks).
     pub(super) grouped: bool,
     // Per-call buffers, reused.
-    pub(super) boxes: Vec<Aabb3>,
+    /// Per group of [`LEAF_SIZE`] slots (every leaf is one such group): the box of its
+    /// faces.
+    pub(super) group_boxes: Vec<Aabb3>,
     /// Per group of [`LEAF_SIZE`] slots (every leaf is one such group).
     pub(super) lanes: Vec<LeafBoxes>,
     /// Per group of [`LEAF_SIZE`] slots: the faces' vertex ids and groups (topology; the
@@ -434,7 +476,7 @@ impl SelfIntersector {
             groups: Vec::new(),
             topology,
             tree,
-            boxes: Vec::new(),
+            group_boxes: Vec::new(),
             lanes: Vec::new(),
             planes: Vec::new(),
             rings: Vec::new(),
@@ -530,34 +572,41 @@ impl SelfIntersector {
     /// current positions.
     pub(super) fn refit(&mut self, mesh: &TriMesh) {
         let n = self.tree.order.len();
-        self.boxes.resize(n, Aabb3::EMPTY);
-        self.planes.resize(n, FacePlane::ZERO);
-        self.units.resize(n, Vec3::zeros());
         let n_groups = n.div_ceil(LEAF_SIZE);
-        self.lanes.resize(n_groups, LeafBoxes::EMPTY);
-        self.group_normals.resize(n_groups, NormalBox::EMPTY);
-        self.node_normals.resize(self.nodes.len(), NormalBox::EMPTY);
-        self.group_cones.resize(n_groups, NormalCone::NONE);
-        self.node_cones.resize(self.nodes.len(), NormalCone::NONE);
+        // Sized on the first call, on both threads (the first writes to fresh memory).
+        rayon::join(
+            || grow_par(&mut self.planes, n, FacePlane::ZERO),
+            || {
+                grow_par(&mut self.units, n, Vec3::zeros());
+                grow_par(&mut self.group_boxes, n_groups, Aabb3::EMPTY);
+                grow_par(&mut self.lanes, n_groups, LeafBoxes::EMPTY);
+                grow_par(&mut self.group_normals, n_groups, NormalBox::EMPTY);
+                grow_par(&mut self.group_cones, n_groups, NormalCone::NONE);
+                grow_par(&mut self.node_normals, self.nodes.len(), NormalBox::EMPTY);
+                grow_par(&mut self.node_cones, self.nodes.len(), NormalCone::NONE);
+            },
+        );
         let pos = mesh.positions();
         let slot_faces = &self.tree.slot_faces;
-        // One parallel pass over leaf groups: f64 boxes and planes per slot, then the
-        // group's f32 lanes (unused lanes keep their empty boxes), normal box and cone.
+        // One parallel pass over leaf groups: planes per slot, then the group's box, f32
+        // lanes (unused lanes keep their empty boxes), normal box and cone.
         self.lanes
             .par_iter_mut()
+            .zip(self.group_boxes.par_iter_mut())
             .zip(self.group_normals.par_iter_mut())
             .zip(self.group_cones.par_iter_mut())
-            .zip(self.boxes.par_chunks_mut(LEAF_SIZE))
             .zip(self.planes.par_chunks_mut(LEAF_SIZE))
             .zip(self.units.par_chunks_mut(LEAF_SIZE))
             .enumerate()
             .with_min_len(256)
-            .for_each(|(group, (((((lanes, nbox), cone), boxes), planes), units))| {
+            .for_each(|(group, (((((lanes, gbox), nbox), cone), planes), units))| {
                 *nbox = NormalBox::EMPTY;
+                *gbox = Aabb3::EMPTY;
                 let mut trusted = true;
-                for (k, (bx, pl)) in boxes.iter_mut().zip(planes.iter_mut()).enumerate() {
+                for (k, pl) in planes.iter_mut().enumerate() {
                     let [a, b, c] = map3(slot_faces[group * LEAF_SIZE + k], |v| pos[v as usize]);
-                    *bx = Aabb3::of_triangle(a, b, c);
+                    let bx = Aabb3::of_triangle(a, b, c);
+                    *gbox = gbox.union(&bx);
                     *pl = FacePlane::of_triangle(a, b, c);
                     match nbox.add_face(pl.n, b - a, c - a) {
                         Some(u) => units[k] = u,
@@ -573,21 +622,9 @@ impl SelfIntersector {
                 }
                 *cone = NormalCone::of_units(units, trusted);
             });
-        for i in (0..self.nodes.len()).rev() {
-            let nd = self.nodes[i];
-            if nd.leaf {
-                // A leaf is exactly one group (leaf sizes are multiples of LEAF_SIZE but
-                // the last, and never more than LEAF_SIZE).
-                self.nodes[i].bbox =
-                    self.boxes[nd.a as usize..nd.b as usize].iter().fold(Aabb3::EMPTY, |acc, b| acc.union(b));
-                self.node_normals[i] = self.group_normals[nd.a as usize / LEAF_SIZE];
-                self.node_cones[i] = self.group_cones[nd.a as usize / LEAF_SIZE];
-            } else {
-                let (ca, cb) = (nd.a as usize, nd.b as usize);
-                self.nodes[i].bbox = self.nodes[ca].bbox.union(&self.nodes[cb].bbox);
-                self.node_normals[i] = self.node_normals[ca].union(&self.node_normals[cb]);
-                self.node_cones[i] = self.node_cones[ca].merge(&self.node_cones[cb]);
-            }
+        if !self.nodes.is_empty() {
+            let leaves = LeafData { boxes: &self.group_boxes, normals: &self.group_normals, cones: &self.group_cones };
+            refit_subtree(&mut self.nodes, &mut self.node_normals, &mut self.node_cones, 0, &leaves, PAR_BUILD_DEPTH);
         }
         self.rings.resize_with(mesh.n_vertices(), || AtomicU8::new(RING_UNKNOWN));
         for r in &mut self.rings {
@@ -596,13 +633,79 @@ impl SelfIntersector {
     }
 }
 
+/// `v` made `n` long: elements already there are kept, new ones are `fill`, written in
+/// parallel chunks.
+fn grow_par<T: Copy + Send + Sync>(v: &mut Vec<T>, n: usize, fill: T) {
+    if v.len() > n {
+        v.truncate(n);
+    } else if v.len() < n {
+        let extra = n - v.len();
+        v.par_extend(rayon::iter::repeat_n(fill, extra).with_min_len(PAR_MIN_ITEMS));
+    }
+}
+
+/// What the refit's bottom-up pass reads per leaf group.
+struct LeafData<'a> {
+    boxes: &'a [Aabb3],
+    normals: &'a [NormalBox],
+    cones: &'a [NormalCone],
+}
+
+/// Boxes, normal boxes and cones of one subtree, bottom-up from the leaf groups: the
+/// subtree of node `base`, whose nodes are `nodes[0..]` (and the same indices of `normals`
+/// and `cones`): parents come before children and a node's first subtree before its
+/// second, so a subtree is one range of nodes, its root first. At the first `par` levels,
+/// subtrees of at least [`PAR_BUILD_MIN`] faces (by node count) do their two children's
+/// subtrees on two threads (rayon); every value is computed as in one pass from the last
+/// node to the first.
+fn refit_subtree(
+    nodes: &mut [Node],
+    normals: &mut [NormalBox],
+    cones: &mut [NormalCone],
+    base: usize,
+    leaves: &LeafData,
+    par: u32,
+) {
+    let nd = nodes[0];
+    if par == 0 || nd.leaf || nodes.len() < 2 * PAR_BUILD_MIN / LEAF_SIZE {
+        for i in (0..nodes.len()).rev() {
+            let nd = nodes[i];
+            if nd.leaf {
+                // A leaf is exactly one group (leaf sizes are multiples of LEAF_SIZE but
+                // the last, and never more than LEAF_SIZE).
+                nodes[i].bbox = leaves.boxes[nd.a as usize / LEAF_SIZE];
+                normals[i] = leaves.normals[nd.a as usize / LEAF_SIZE];
+                cones[i] = leaves.cones[nd.a as usize / LEAF_SIZE];
+            } else {
+                let (ca, cb) = (nd.a as usize - base, nd.b as usize - base);
+                nodes[i].bbox = nodes[ca].bbox.union(&nodes[cb].bbox);
+                normals[i] = normals[ca].union(&normals[cb]);
+                cones[i] = cones[ca].merge(&cones[cb]);
+            }
+        }
+        return;
+    }
+    // The first child is node `base + 1`; the second's subtree starts at node `nd.b`.
+    let split = nd.b as usize - base;
+    let (nodes_a, nodes_b) = nodes[1..].split_at_mut(split - 1);
+    let (normals_a, normals_b) = normals[1..].split_at_mut(split - 1);
+    let (cones_a, cones_b) = cones[1..].split_at_mut(split - 1);
+    rayon::join(
+        || refit_subtree(nodes_a, normals_a, cones_a, base + 1, leaves, par - 1),
+        || refit_subtree(nodes_b, normals_b, cones_b, base + split, leaves, par - 1),
+    );
+    nodes[0].bbox = nodes[1].bbox.union(&nodes[split].bbox);
+    normals[0] = normals[1].union(&normals[split]);
+    cones[0] = cones[1].merge(&cones[split]);
+}
+
 /// Tree construction state: edge neighbours (see [`face_neighbours`]), face centroids, each
 /// face's rank along each axis in the order of [`axis_key`] and the faces by rank, and
 /// scratch.
 pub(super) struct Builder<'a> {
     pub(super) nbrs: &'a [[u32; 3]],
     /// Slot of `order[0]` of the slice this builder is given (nonzero for the builders of
-    /// second halves made on other threads).
+    /// second halves built as separate tasks).
     pub(super) base: usize,
     pub(super) centroids: &'a [Vec3],
     /// Per face: its position in `by_rank[axis]`, per axis.
@@ -727,8 +830,9 @@ impl<'a> Builder<'a> {
     /// Builds the subtree over `order[lo..hi]` (split in two halves along the longest axis of
     /// the centroids, the first half grown across edges from the smallest centroid so that
     /// it stays connected, see [`Self::grow_split`]; leaf sizes a multiple of [`LEAF_SIZE`]
-    /// except the last); returns its node index. Parents come before their children in
-    /// `nodes`. Connected halves make more nodes topological disks that the traversal can
+    /// except the last) into `nodes`, the subtree's [`subtree_nodes`] nodes, whose first is
+    /// node `id` of the tree: each node is followed by its first half's subtree, then its
+    /// second's, so node ids are known before the halves are built. Connected halves make more nodes topological disks that the traversal can
     /// skip whole (on the garment benchmark, 87% of the nodes of 17 to 1024 faces instead
     /// of 70% with a plain median split).
     ///
@@ -739,57 +843,66 @@ impl<'a> Builder<'a> {
     ///
     /// Subtrees of at most [`SMALL_MAX`] faces are built by [`Self::small_subtree`] (the
     /// same splits, on bit masks). At the first `par` levels, nodes of at least
-    /// [`PAR_BUILD_MIN`] faces build their second half on another thread (rayon); the tree
-    /// is the same as without.
-    pub(super) fn node(&mut self, nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize, par: u32) -> u32 {
-        let id = nodes.len();
-        nodes.push(Node { bbox: Aabb3::EMPTY, a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true });
+    /// [`PAR_BUILD_MIN`] faces build their second half as a separate rayon task, with a
+    /// builder taken from `spare` (or a new one) and put back when that half is built; the
+    /// tree is the same as without. A builder needs no clearing between tasks: its per-face
+    /// marks are stamped with node ids, which are unique in the tree, so a mark left by an
+    /// earlier node never matches.
+    pub(super) fn node(
+        &mut self,
+        nodes: &mut [Node],
+        id: usize,
+        order: &mut [u32],
+        lo: usize,
+        hi: usize,
+        par: u32,
+        spare: &Mutex<Vec<Builder<'a>>>,
+    ) {
         if hi - lo <= LEAF_SIZE {
-            return id as u32;
+            nodes[0] = Node { bbox: Aabb3::EMPTY, a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true };
+            return;
         }
         if hi - lo <= SMALL_MAX {
-            nodes.pop();
-            return self.small_subtree(nodes, order, lo, hi);
+            return self.small_subtree(nodes, id, order, lo, hi);
         }
         let (axis, ranks) = self.split_axis(&order[lo..hi]);
         let n_leaves = (hi - lo).div_ceil(LEAF_SIZE);
         let mid = lo + (n_leaves / 2) * LEAF_SIZE;
         self.grow_split(order, [lo, mid, hi], axis, ranks, id as u32);
         self.swap_strays(order, lo, mid, hi, id as u32);
-        let (l, r) = if par > 0 && hi - lo >= PAR_BUILD_MIN {
-            // The second half on another thread, into its own node list and scratch (the
-            // halves share no face), appended after the first half's subtree: the same
-            // tree, numbered as the sequential build numbers it.
+        // The node, then its first half's subtree, then its second's (see `subtree_nodes`).
+        let (first_nodes, second_nodes) = nodes[1..].split_at_mut(subtree_nodes(mid - lo));
+        let (l, r) = (id + 1, id + 1 + first_nodes.len());
+        if par > 0 && hi - lo >= PAR_BUILD_MIN {
+            // The second half as its own task (the halves share no face), with a builder
+            // taken only once the task runs, so that as many exist as tasks run at once.
             let (first, second) = order[..hi].split_at_mut(mid);
-            let mut other = Builder::new(self.nbrs, self.centroids, self.rank, self.by_rank, self.base + mid);
-            let mut second_nodes = Vec::with_capacity(2 * (hi - mid) / LEAF_SIZE + 2);
-            let (l, r) = rayon::join(
-                || self.node(nodes, first, lo, mid, par - 1),
-                || other.node(&mut second_nodes, second, 0, hi - mid, par - 1),
+            let (nbrs, centroids, rank, by_rank) = (self.nbrs, self.centroids, self.rank, self.by_rank);
+            let base = self.base + mid;
+            rayon::join(
+                || self.node(first_nodes, l, first, lo, mid, par - 1, spare),
+                || {
+                    let taken = spare.lock().unwrap_or_else(PoisonError::into_inner).pop();
+                    let mut other = taken.unwrap_or_else(|| Builder::new(nbrs, centroids, rank, by_rank, base));
+                    other.base = base;
+                    other.node(second_nodes, r, second, 0, hi - mid, par - 1, spare);
+                    spare.lock().unwrap_or_else(PoisonError::into_inner).push(other);
+                },
             );
-            let offset = nodes.len() as u32;
-            nodes.extend(second_nodes.into_iter().map(|nd| {
-                if nd.leaf {
-                    nd
-                } else {
-                    Node { a: nd.a + offset, b: nd.b + offset, ..nd }
-                }
-            }));
-            (l, r + offset)
         } else {
-            (self.node(nodes, order, lo, mid, 0), self.node(nodes, order, mid, hi, 0))
-        };
-        nodes[id] = Node { bbox: Aabb3::EMPTY, a: l, b: r, leaf: false };
-        id as u32
+            self.node(first_nodes, l, order, lo, mid, 0, spare);
+            self.node(second_nodes, r, order, mid, hi, 0, spare);
+        }
+        nodes[0] = Node { bbox: Aabb3::EMPTY, a: l as u32, b: r as u32, leaf: false };
     }
 
     /// Builds the subtree over `order[lo..hi]` (at most [`SMALL_MAX`] faces) as
     /// [`Self::node`] does, on bit masks over its faces ([`SmallSubtree`]): the growing
     /// split pops the lowest bit of the queue, and the stray swaps count neighbours on each
     /// side by population counts.
-    pub(super) fn small_subtree(&mut self, nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize) -> u32 {
+    pub(super) fn small_subtree(&mut self, nodes: &mut [Node], id: usize, order: &mut [u32], lo: usize, hi: usize) {
         let m = hi - lo;
-        let root = nodes.len() as u64;
+        let root = id as u64;
         let sm = &mut *self.small;
         sm.faces[..m].copy_from_slice(&order[lo..hi]);
         for (i, &f) in order[lo..hi].iter().enumerate() {
@@ -829,16 +942,15 @@ impl<'a> Builder<'a> {
             }
         }
         let all = if m == SMALL_MAX { SmallSet::MAX } else { (1 << m) - 1 };
-        self.small_node(nodes, order, lo, hi, all)
+        self.small_node(nodes, id, order, lo, hi, all)
     }
 
     /// The node over `order[lo..hi]`, whose faces are the indices in `set` (see
     /// [`Self::small_subtree`]).
-    fn small_node(&mut self, nodes: &mut Vec<Node>, order: &mut [u32], lo: usize, hi: usize, set: SmallSet) -> u32 {
-        let id = nodes.len();
-        nodes.push(Node { bbox: Aabb3::EMPTY, a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true });
+    fn small_node(&mut self, nodes: &mut [Node], id: usize, order: &mut [u32], lo: usize, hi: usize, set: SmallSet) {
         if hi - lo <= LEAF_SIZE {
-            return id as u32;
+            nodes[0] = Node { bbox: Aabb3::EMPTY, a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true };
+            return;
         }
         let sm = &*self.small;
         let along = [sm.along(0, set), sm.along(1, set), sm.along(2, set)];
@@ -921,10 +1033,11 @@ impl<'a> Builder<'a> {
                 children[side] |= 1 << i;
             }
         }
-        let l = self.small_node(nodes, order, lo, mid, children[0]);
-        let r = self.small_node(nodes, order, mid, hi, children[1]);
-        nodes[id] = Node { bbox: Aabb3::EMPTY, a: l, b: r, leaf: false };
-        id as u32
+        let (first_nodes, second_nodes) = nodes[1..].split_at_mut(subtree_nodes(mid - lo));
+        let (l, r) = (id + 1, id + 1 + first_nodes.len());
+        self.small_node(first_nodes, l, order, lo, mid, children[0]);
+        self.small_node(second_nodes, r, order, mid, hi, children[1]);
+        nodes[0] = Node { bbox: Aabb3::EMPTY, a: l as u32, b: r as u32, leaf: false };
     }
 
     /// The axis along which the centroids of `faces` extend furthest (the first of equal

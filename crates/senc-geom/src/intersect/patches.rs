@@ -2,6 +2,7 @@
 //! and the 2D segment tests that check their projected boundary is a simple curve.
 
 use super::*;
+use std::sync::{Mutex, PoisonError};
 
 /// Box of the unit normals of a set of faces, for the normal-cone test of disk patches
 /// (see [`Traversal::patch_is_embedded`]). A face whose float normal direction cannot be
@@ -163,6 +164,8 @@ pub(super) struct DiskPatches {
 /// unions of sets not known to be connected are counted and searched face by face, as is
 /// every leaf. Each node costs about its boundary, not its faces; the boundary edges are
 /// listed in slot order, then per slot in the order of [`crate::Topology::face_edges`].
+/// The top [`PAR_BUILD_DEPTH`] levels do their two children's subtrees as two rayon tasks
+/// (see [`DiskBuilder::node`]).
 pub(super) fn disk_patches(
     n_vertices: usize,
     nodes: &[Node],
@@ -176,24 +179,9 @@ pub(super) fn disk_patches(
         let nd = nodes[i];
         range[i] = if nd.leaf { [nd.a, nd.b] } else { [range[nd.a as usize][0], range[nd.b as usize][1]] };
     }
-    let mut b = DiskBuilder {
-        nodes,
-        slot_faces,
-        slot_nbrs,
-        kinds,
-        pinched,
-        range: &range,
-        ranges: vec![[0u32; 2]; nodes.len()],
-        edges: Vec::new(),
-        bnd: Vec::new(),
-        stamp_a: vec![u32::MAX; n_vertices],
-        stamp_b: vec![u32::MAX; n_vertices],
-        deg: vec![0u32; n_vertices],
-        reached_by: vec![u32::MAX; slot_faces.len()],
-        stack: Vec::new(),
-    };
+    let mut b = DiskBuilder::new(n_vertices, nodes, slot_faces, slot_nbrs, kinds, pinched, &range);
     if !nodes.is_empty() {
-        b.node(0);
+        b.node(0, PAR_BUILD_DEPTH, &Mutex::new(Vec::new()));
     }
     let DiskBuilder { ranges, edges, .. } = b;
     DiskPatches { ranges, edges, slots: range }
@@ -244,18 +232,82 @@ struct BoundaryEdge {
     across: u32,
 }
 
-impl DiskBuilder<'_> {
-    /// Node `id`'s counts; its boundary is pushed on `bnd`, and its range set.
-    fn node(&mut self, id: usize) -> NodeCount {
+impl<'a> DiskBuilder<'a> {
+    fn new(
+        n_vertices: usize,
+        nodes: &'a [Node],
+        slot_faces: &'a [[u32; 3]],
+        slot_nbrs: &'a [[u32; 3]],
+        kinds: &'a [u8],
+        pinched: &'a [bool],
+        range: &'a [[u32; 2]],
+    ) -> Self {
+        DiskBuilder {
+            nodes,
+            slot_faces,
+            slot_nbrs,
+            kinds,
+            pinched,
+            range,
+            ranges: vec![[0u32; 2]; nodes.len()],
+            edges: Vec::new(),
+            bnd: Vec::new(),
+            stamp_a: vec![u32::MAX; n_vertices],
+            stamp_b: vec![u32::MAX; n_vertices],
+            deg: vec![0u32; n_vertices],
+            reached_by: vec![u32::MAX; slot_faces.len()],
+            stack: Vec::new(),
+        }
+    }
+
+    /// Node `id`'s counts; its boundary is pushed on `bnd`, and its range set. At the first
+    /// `par` levels, nodes of at least [`PAR_BUILD_MIN`] faces do their second child as a
+    /// separate rayon task, with a builder taken from `spare` (or a new one), whose
+    /// boundary, edges and ranges are then copied into this one's before it goes back to
+    /// `spare`: the same output as without (stamps are node ids, unique in the tree, and
+    /// the degrees are left zero, so a builder's scratch needs no clearing).
+    fn node(&mut self, id: usize, par: u32, spare: &Mutex<Vec<DiskBuilder<'a>>>) -> NodeCount {
         let nd = self.nodes[id];
         let [lo, hi] = self.range[id];
         let start = self.bnd.len();
         let count = if nd.leaf {
             self.leaf(id as u32, lo, hi)
-        } else {
-            let a = self.node(nd.a as usize);
+        } else if par > 0 && (hi - lo) as usize >= PAR_BUILD_MIN {
+            let (ia, ib) = (nd.a as usize, nd.b as usize);
+            let n_vertices = self.deg.len();
+            let (nodes, slot_faces, slot_nbrs, kinds, pinched, range) =
+                (self.nodes, self.slot_faces, self.slot_nbrs, self.kinds, self.pinched, self.range);
+            let (a, (b, mut other)) = rayon::join(
+                || self.node(ia, par - 1, spare),
+                || {
+                    let taken = spare.lock().unwrap_or_else(PoisonError::into_inner).pop();
+                    let mut other = taken.unwrap_or_else(|| {
+                        DiskBuilder::new(n_vertices, nodes, slot_faces, slot_nbrs, kinds, pinched, range)
+                    });
+                    (other.node(ib, par - 1, spare), other)
+                },
+            );
+            // The second child's subtree is the nodes `ib..end` (parents before children,
+            // each node's first subtree before its second).
+            let mut end = ib;
+            while !self.nodes[end].leaf {
+                end = self.nodes[end].b as usize;
+            }
+            let offset = self.edges.len() as u32;
+            for (r, o) in self.ranges[ib..=end].iter_mut().zip(&other.ranges[ib..=end]) {
+                *r = o.map(|x| x + offset);
+            }
+            self.edges.extend_from_slice(&other.edges);
             let split = self.bnd.len();
-            let b = self.node(nd.b as usize);
+            self.bnd.extend_from_slice(&other.bnd);
+            other.edges.clear();
+            other.bnd.clear();
+            spare.lock().unwrap_or_else(PoisonError::into_inner).push(other);
+            self.merge(id as u32, [lo, self.range[ia][1], hi], a, b, start, split)
+        } else {
+            let a = self.node(nd.a as usize, 0, spare);
+            let split = self.bnd.len();
+            let b = self.node(nd.b as usize, 0, spare);
             self.merge(id as u32, [lo, self.range[nd.a as usize][1], hi], a, b, start, split)
         };
         let mut count = count;

@@ -143,6 +143,13 @@ fn fan_crossings(mesh: &TriMesh, ray: &AxisRay, far: Vec3, open_loops: &[Vec<u32
     Some(count)
 }
 
+/// The box of face `f` of `mesh` (as the refit computes it).
+#[inline]
+fn face_box(mesh: &TriMesh, f: u32) -> Aabb3 {
+    let [a, b, c] = mesh.triangle(f as usize);
+    Aabb3::of_triangle(a, b, c)
+}
+
 impl SelfIntersector {
     /// The signed crossing count of `ray` with every face of `mesh` except `skip`, through
     /// this intersector's BVH: the same number as [`ray_winding_brute`]. The boxes are those
@@ -155,7 +162,7 @@ impl SelfIntersector {
     /// virtual fans over `open_loops` (holes left open; pass `&[]` when there are none), so
     /// that the count is the winding number of the surface closed by those fans.
     pub fn ray_winding(&self, mesh: &TriMesh, ray: &AxisRay, skip: u32, open_loops: &[Vec<u32>]) -> Option<i64> {
-        if self.nodes.is_empty() || !self.fits(mesh) || self.boxes.len() != self.tree.order.len() {
+        if self.nodes.is_empty() || !self.fits(mesh) || self.lanes.len() != self.tree.order.len().div_ceil(LEAF_SIZE) {
             return ray_winding_brute(mesh, ray, skip, open_loops);
         }
         let root = self.nodes[0].bbox;
@@ -170,7 +177,7 @@ impl SelfIntersector {
             if nd.leaf {
                 for slot in nd.a as usize..nd.b as usize {
                     let f = self.tree.order[slot];
-                    if f != skip && ray.may_hit(&self.boxes[slot]) {
+                    if f != skip && ray.may_hit(&face_box(mesh, f)) {
                         if meets_coplanar(mesh, ray, far, skip, f as usize) {
                             return None;
                         }
