@@ -2,7 +2,7 @@
 //! of four faces, the tree build (connected halves) and refit, and [`SelfIntersector`].
 
 use super::*;
-use std::sync::{Mutex, PoisonError};
+use std::sync::atomic::{AtomicU32, AtomicU64};
 
 /// Levels of the tree build whose two halves are built in parallel (see [`Builder::node`]).
 pub(super) const PAR_BUILD_DEPTH: u32 = 3;
@@ -119,18 +119,18 @@ pub(super) struct LeafVerts {
 }
 
 impl LeafVerts {
-    /// Per leaf group of `slot_faces` / `slot_groups`.
+    /// Per leaf group of `slot_faces` / `slot_groups` (empty: every group 0).
     pub(super) fn of_slots(slot_faces: &[[u32; 3]], slot_groups: &[u32]) -> Vec<LeafVerts> {
         slot_faces
             .chunks(LEAF_SIZE)
-            .zip(slot_groups.chunks(LEAF_SIZE))
-            .map(|(fs, gs)| {
+            .enumerate()
+            .map(|(i, fs)| {
                 let mut lv = LeafVerts { v: [[-1; LEAF_SIZE]; 3], g: [0; LEAF_SIZE] };
-                for (k, (f, &g)) in fs.iter().zip(gs).enumerate() {
+                for (k, f) in fs.iter().enumerate() {
                     for (c, &v) in f.iter().enumerate() {
                         lv.v[c][k] = v as i32;
                     }
-                    lv.g[k] = g as i32;
+                    lv.g[k] = slot_groups.get(i * LEAF_SIZE + k).map_or(0, |&g| g as i32);
                 }
                 lv
             })
@@ -193,6 +193,15 @@ pub(super) struct Node {
     pub(super) leaf: bool,
 }
 
+/// A node of the tree's shape, as [`Node`] without its box: a leaf over slots `a..b`, or an
+/// inner node with children `a` and `b`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct TreeNode {
+    pub(super) a: u32,
+    pub(super) b: u32,
+    pub(super) leaf: bool,
+}
+
 /// The parts of a [`SelfIntersector`] that depend only on the faces, and on the positions
 /// its tree was built for: the tree's shape and slot order, per-slot vertex ids, vertex
 /// rings and the disk-patch boundaries. Built once per [`crate::Topology`] (see
@@ -201,10 +210,8 @@ pub(super) struct Node {
 /// boxes, refit per call, are tested).
 #[derive(Debug)]
 pub(crate) struct SearchTree {
-    /// The faces the tree was built for.
-    pub(super) faces: Vec<[u32; 3]>,
-    /// The nodes with the boxes of the build positions (each intersector refits its copy).
-    pub(super) nodes: Vec<Node>,
+    /// The nodes' shape (each intersector adds boxes and refits them).
+    pub(super) nodes: Vec<TreeNode>,
     /// Slot → face.
     pub(super) order: Vec<u32>,
     /// Per slot: the face's vertex ids.
@@ -228,7 +235,7 @@ pub(crate) struct SearchTree {
 
 /// The tree's nodes and slot order over faces with these centroids and edge neighbours
 /// (see [`Builder::node`]; `par` levels of parallel halves).
-pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Vec<Node>, Vec<u32>) {
+pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Vec<TreeNode>, Vec<u32>) {
     let n = centroids.len();
     let mut order: Vec<u32> = (0..n as u32).collect();
     let mut nodes = Vec::new();
@@ -246,10 +253,10 @@ pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Ve
                 rank[f as usize][axis] = r as u32;
             }
         }
-        let spare = Mutex::new(Vec::new());
-        let mut b = Builder::new(nbrs, centroids, &rank, [&x, &y, &z], 0);
-        nodes = vec![Node { bbox: Aabb3::EMPTY, a: 0, b: 0, leaf: true }; subtree_nodes(n)];
-        b.node(&mut nodes, 0, &mut order, 0, n, par, &spare);
+        let marks = FaceMarks::new(n);
+        let mut b = Builder::new(nbrs, centroids, &rank, [&x, &y, &z], &marks, 0);
+        nodes = vec![TreeNode { a: 0, b: 0, leaf: true }; subtree_nodes(n)];
+        b.node(&mut nodes, 0, &mut order, 0, n, par);
     }
     (nodes, order)
 }
@@ -310,7 +317,7 @@ impl SearchTree {
     fn build(mesh: &TriMesh) -> Self {
         let n = mesh.n_faces();
         // The tree on one side, the vertex rings (topology only) on the other.
-        let ((nodes, order, nbrs), ((ring_kind, (ring_start, ring_links), pinched), faces)) = rayon::join(
+        let ((nodes, order, nbrs), (ring_kind, (ring_start, ring_links), pinched)) = rayon::join(
             || {
                 let (centroids, nbrs) = rayon::join(
                     || {
@@ -334,7 +341,7 @@ impl SearchTree {
                 let kinds = ring_kinds(mesh);
                 let (start, links) = ring_links(mesh);
                 let pinched = ring_fans(&kinds, &start, &links);
-                ((kinds, (start, links), pinched), mesh.faces().to_vec())
+                (kinds, (start, links), pinched)
             },
         );
         let mut slot_of = vec![0u32; n];
@@ -347,7 +354,7 @@ impl SearchTree {
                 order
                     .par_iter()
                     .with_min_len(PAR_MIN_ITEMS)
-                    .map(|&f| faces[f as usize])
+                    .map(|&f| mesh.faces()[f as usize])
                     .collect_into_vec(&mut slot_faces)
             },
             || {
@@ -360,11 +367,10 @@ impl SearchTree {
         );
         let (DiskPatches { ranges: patch_ranges, edges: patch_edges, slots: node_slots }, leaf_verts) = rayon::join(
             || disk_patches(mesh.n_vertices(), &nodes, &slot_faces, &slot_nbrs, &ring_kind, &pinched),
-            || LeafVerts::of_slots(&slot_faces, &vec![0; n]),
+            || LeafVerts::of_slots(&slot_faces, &[]),
         );
         Self {
             leaf_verts: Arc::new(leaf_verts),
-            faces,
             nodes,
             order,
             slot_faces,
@@ -454,7 +460,7 @@ pub struct SelfIntersector {
 impl std::fmt::Debug for SelfIntersector {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("SelfIntersector")
-            .field("n_faces", &self.tree.faces.len())
+            .field("n_faces", &self.tree.order.len())
             .field("n_nodes", &self.nodes.len())
             .finish()
     }
@@ -466,13 +472,13 @@ impl SelfIntersector {
     pub fn new(mesh: &TriMesh) -> Self {
         let topology = mesh.topology_arc();
         let tree = Arc::clone(topology.search.0.get_or_init(|| Arc::new(SearchTree::build(mesh))));
-        let n = tree.faces.len();
+        let n = tree.order.len();
         Self {
             slot_groups: vec![0; n],
             leaf_verts: Arc::clone(&tree.leaf_verts),
             node_groups: vec![0; tree.nodes.len()],
             grouped: false,
-            nodes: tree.nodes.clone(),
+            nodes: tree.nodes.iter().map(|t| Node { bbox: Aabb3::EMPTY, a: t.a, b: t.b, leaf: t.leaf }).collect(),
             groups: Vec::new(),
             topology,
             tree,
@@ -491,7 +497,10 @@ impl SelfIntersector {
     /// Whether `mesh` has the faces the tree was made for (the same topology, or equal
     /// faces).
     pub(super) fn fits(&self, mesh: &TriMesh) -> bool {
-        std::ptr::eq(mesh.topology(), Arc::as_ptr(&self.topology)) || mesh.faces() == self.tree.faces.as_slice()
+        let (order, faces) = (&self.tree.order, mesh.faces());
+        std::ptr::eq(mesh.topology(), Arc::as_ptr(&self.topology))
+            || (faces.len() == order.len()
+                && order.iter().zip(&self.tree.slot_faces).all(|(&f, sf)| faces[f as usize] == *sf))
     }
 
     /// Faces sharing a nonzero `groups[f]` are not tested against each other, e.g. the fan
@@ -501,7 +510,7 @@ impl SelfIntersector {
     /// Grouped faces are still tested against every other face. A `groups` of the wrong
     /// length is ignored.
     pub fn with_groups(mut self, groups: Vec<u32>) -> Self {
-        if groups.len() == self.tree.faces.len() {
+        if groups.len() == self.tree.order.len() {
             self.slot_groups = self.tree.order.iter().map(|&f| groups[f as usize]).collect();
             self.leaf_verts = Arc::new(LeafVerts::of_slots(&self.tree.slot_faces, &self.slot_groups));
             self.node_groups = node_groups(&self.nodes, &self.slot_groups);
@@ -712,10 +721,8 @@ pub(super) struct Builder<'a> {
     pub(super) rank: &'a [[u32; 3]],
     /// Per axis: all faces sorted by [`axis_key`].
     pub(super) by_rank: [&'a [u32]; 3],
-    /// Per face: `2 node + side` of the split being made.
-    pub(super) mark: Vec<u32>,
-    /// Per face: the node whose growing split has queued it.
-    pub(super) queued: Vec<u32>,
+    /// Per-face marks, shared with the builders of the other tasks.
+    pub(super) marks: &'a FaceMarks,
     /// One bit per rank along the split axis: the faces of the node being split that are
     /// not (yet) in its first half (see [`Self::grow_split`]); all clear between splits.
     pub(super) rest: Vec<u64>,
@@ -726,17 +733,55 @@ pub(super) struct Builder<'a> {
     pub(super) strays: [Vec<usize>; 2],
     pub(super) notches: [Vec<usize>; 2],
     pub(super) pairs: Vec<(usize, usize)>,
-    /// Per face listed in `cut`: its slot (in the slice this builder is given).
-    pub(super) slot_of: Vec<u32>,
     /// The faces along the split being made and their neighbours (see
-    /// [`Self::swap_strays`]), and per face the node whose split has listed it.
+    /// [`Self::swap_strays`]).
     pub(super) cut: Vec<u32>,
-    pub(super) cut_stamp: Vec<u32>,
-    /// Per face: `SMALL_MAX × (root node) + index` within the small subtree being built
-    /// (see [`Self::small_subtree`]).
-    pub(super) small_index: Vec<u64>,
     /// Scratch of [`Self::small_subtree`].
     pub(super) small: Box<SmallSubtree>,
+}
+
+/// Per-face marks of the tree build, one set shared by the builders of all tasks. Each
+/// entry holds a stamp made from a node id, which is unique in the tree; a task writes only
+/// the entries of its own faces and reads other faces' entries only to compare them with
+/// stamps of its own nodes, so relaxed atomic loads and stores (plain moves) suffice, and
+/// an entry left by an earlier node never matches.
+pub(super) struct FaceMarks {
+    /// Per face: `2 node + side` of the split being made.
+    mark: Vec<AtomicU32>,
+    /// Per face: the node whose growing split has queued it.
+    queued: Vec<AtomicU32>,
+    /// Per face: the node whose split has listed it in [`Builder::cut`].
+    cut_stamp: Vec<AtomicU32>,
+    /// Per face listed in [`Builder::cut`]: its slot (in the slice its builder is given).
+    slot_of: Vec<AtomicU32>,
+    /// Per face: `SMALL_MAX × (root node) + index` within the small subtree being built
+    /// (see [`Builder::small_subtree`]).
+    small_index: Vec<AtomicU64>,
+}
+
+impl FaceMarks {
+    fn new(n: usize) -> Self {
+        let none = || (0..n).map(|_| AtomicU32::new(u32::MAX)).collect();
+        FaceMarks {
+            mark: none(),
+            queued: none(),
+            cut_stamp: none(),
+            slot_of: none(),
+            small_index: (0..n).map(|_| AtomicU64::new(u64::MAX)).collect(),
+        }
+    }
+}
+
+/// Entry `f` of a per-face mark.
+#[inline(always)]
+fn get(v: &[AtomicU32], f: u32) -> u32 {
+    v[f as usize].load(AtomicOrdering::Relaxed)
+}
+
+/// Sets entry `f` of a per-face mark.
+#[inline(always)]
+fn set(v: &[AtomicU32], f: u32, x: u32) {
+    v[f as usize].store(x, AtomicOrdering::Relaxed);
 }
 
 /// Largest subtree (in faces) that [`Builder::small_subtree`] builds on bit masks.
@@ -802,6 +847,7 @@ impl<'a> Builder<'a> {
         centroids: &'a [Vec3],
         rank: &'a [[u32; 3]],
         by_rank: [&'a [u32]; 3],
+        marks: &'a FaceMarks,
         base: usize,
     ) -> Self {
         let n = centroids.len();
@@ -810,19 +856,15 @@ impl<'a> Builder<'a> {
             centroids,
             rank,
             by_rank,
+            marks,
             base,
-            mark: vec![u32::MAX; n],
-            queued: vec![u32::MAX; n],
             rest: vec![0; n.div_ceil(64)],
             all: Vec::new(),
             queue: RankQueue::new(n),
             strays: [Vec::new(), Vec::new()],
             notches: [Vec::new(), Vec::new()],
             pairs: Vec::new(),
-            slot_of: vec![0; n],
             cut: Vec::new(),
-            cut_stamp: vec![u32::MAX; n],
-            small_index: vec![u64::MAX; n],
             small: SmallSubtree::new(),
         }
     }
@@ -843,23 +885,20 @@ impl<'a> Builder<'a> {
     ///
     /// Subtrees of at most [`SMALL_MAX`] faces are built by [`Self::small_subtree`] (the
     /// same splits, on bit masks). At the first `par` levels, nodes of at least
-    /// [`PAR_BUILD_MIN`] faces build their second half as a separate rayon task, with a
-    /// builder taken from `spare` (or a new one) and put back when that half is built; the
-    /// tree is the same as without. A builder needs no clearing between tasks: its per-face
-    /// marks are stamped with node ids, which are unique in the tree, so a mark left by an
-    /// earlier node never matches.
+    /// [`PAR_BUILD_MIN`] faces build their second half as a separate rayon task, with its
+    /// own builder (scratch of a few words per 64 faces; the per-face marks are shared, see
+    /// [`FaceMarks`]); the tree is the same as without.
     pub(super) fn node(
         &mut self,
-        nodes: &mut [Node],
+        nodes: &mut [TreeNode],
         id: usize,
         order: &mut [u32],
         lo: usize,
         hi: usize,
         par: u32,
-        spare: &Mutex<Vec<Builder<'a>>>,
     ) {
         if hi - lo <= LEAF_SIZE {
-            nodes[0] = Node { bbox: Aabb3::EMPTY, a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true };
+            nodes[0] = TreeNode { a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true };
             return;
         }
         if hi - lo <= SMALL_MAX {
@@ -874,39 +913,37 @@ impl<'a> Builder<'a> {
         let (first_nodes, second_nodes) = nodes[1..].split_at_mut(subtree_nodes(mid - lo));
         let (l, r) = (id + 1, id + 1 + first_nodes.len());
         if par > 0 && hi - lo >= PAR_BUILD_MIN {
-            // The second half as its own task (the halves share no face), with a builder
-            // taken only once the task runs, so that as many exist as tasks run at once.
+            // The second half as its own task (the halves share no face).
             let (first, second) = order[..hi].split_at_mut(mid);
-            let (nbrs, centroids, rank, by_rank) = (self.nbrs, self.centroids, self.rank, self.by_rank);
+            let (nbrs, centroids, rank, by_rank, marks) =
+                (self.nbrs, self.centroids, self.rank, self.by_rank, self.marks);
             let base = self.base + mid;
             rayon::join(
-                || self.node(first_nodes, l, first, lo, mid, par - 1, spare),
+                || self.node(first_nodes, l, first, lo, mid, par - 1),
                 || {
-                    let taken = spare.lock().unwrap_or_else(PoisonError::into_inner).pop();
-                    let mut other = taken.unwrap_or_else(|| Builder::new(nbrs, centroids, rank, by_rank, base));
-                    other.base = base;
-                    other.node(second_nodes, r, second, 0, hi - mid, par - 1, spare);
-                    spare.lock().unwrap_or_else(PoisonError::into_inner).push(other);
+                    let mut other = Builder::new(nbrs, centroids, rank, by_rank, marks, base);
+                    other.node(second_nodes, r, second, 0, hi - mid, par - 1);
                 },
             );
         } else {
-            self.node(first_nodes, l, order, lo, mid, 0, spare);
-            self.node(second_nodes, r, order, mid, hi, 0, spare);
+            self.node(first_nodes, l, order, lo, mid, 0);
+            self.node(second_nodes, r, order, mid, hi, 0);
         }
-        nodes[0] = Node { bbox: Aabb3::EMPTY, a: l as u32, b: r as u32, leaf: false };
+        nodes[0] = TreeNode { a: l as u32, b: r as u32, leaf: false };
     }
 
     /// Builds the subtree over `order[lo..hi]` (at most [`SMALL_MAX`] faces) as
     /// [`Self::node`] does, on bit masks over its faces ([`SmallSubtree`]): the growing
     /// split pops the lowest bit of the queue, and the stray swaps count neighbours on each
     /// side by population counts.
-    pub(super) fn small_subtree(&mut self, nodes: &mut [Node], id: usize, order: &mut [u32], lo: usize, hi: usize) {
+    pub(super) fn small_subtree(&mut self, nodes: &mut [TreeNode], id: usize, order: &mut [u32], lo: usize, hi: usize) {
         let m = hi - lo;
         let root = id as u64;
         let sm = &mut *self.small;
         sm.faces[..m].copy_from_slice(&order[lo..hi]);
+        let small_index = &self.marks.small_index;
         for (i, &f) in order[lo..hi].iter().enumerate() {
-            self.small_index[f as usize] = root * SMALL_MAX as u64 + i as u64;
+            small_index[f as usize].store(root * SMALL_MAX as u64 + i as u64, AtomicOrdering::Relaxed);
         }
         let mut keys = [0u64; SMALL_MAX];
         for axis in 0..3 {
@@ -929,7 +966,7 @@ impl<'a> Builder<'a> {
                 if g == NO_FACE {
                     continue;
                 }
-                let key = self.small_index[g as usize];
+                let key = small_index[g as usize].load(AtomicOrdering::Relaxed);
                 if key / SMALL_MAX as u64 == root {
                     let j = (key % SMALL_MAX as u64) as usize;
                     for (axis, l) in local.iter_mut().enumerate() {
@@ -947,9 +984,17 @@ impl<'a> Builder<'a> {
 
     /// The node over `order[lo..hi]`, whose faces are the indices in `set` (see
     /// [`Self::small_subtree`]).
-    fn small_node(&mut self, nodes: &mut [Node], id: usize, order: &mut [u32], lo: usize, hi: usize, set: SmallSet) {
+    fn small_node(
+        &mut self,
+        nodes: &mut [TreeNode],
+        id: usize,
+        order: &mut [u32],
+        lo: usize,
+        hi: usize,
+        set: SmallSet,
+    ) {
         if hi - lo <= LEAF_SIZE {
-            nodes[0] = Node { bbox: Aabb3::EMPTY, a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true };
+            nodes[0] = TreeNode { a: (self.base + lo) as u32, b: (self.base + hi) as u32, leaf: true };
             return;
         }
         let sm = &*self.small;
@@ -1037,7 +1082,7 @@ impl<'a> Builder<'a> {
         let (l, r) = (id + 1, id + 1 + first_nodes.len());
         self.small_node(first_nodes, l, order, lo, mid, children[0]);
         self.small_node(second_nodes, r, order, mid, hi, children[1]);
-        nodes[0] = Node { bbox: Aabb3::EMPTY, a: l as u32, b: r as u32, leaf: false };
+        nodes[0] = TreeNode { a: l as u32, b: r as u32, leaf: false };
     }
 
     /// The axis along which the centroids of `faces` extend furthest (the first of equal
@@ -1085,8 +1130,9 @@ impl<'a> Builder<'a> {
         let (rank, by_rank) = (self.rank, self.by_rank[axis]);
         let (unassigned, left) = (2 * id + 1, 2 * id);
         let words = first as usize / 64..last as usize / 64 + 1;
+        let FaceMarks { mark, queued, cut_stamp, slot_of, .. } = self.marks;
         for &f in &order[lo..hi] {
-            self.mark[f as usize] = unassigned;
+            set(mark, f, unassigned);
             let r = rank[f as usize][axis] as usize;
             self.rest[r / 64] |= 1 << (r % 64);
         }
@@ -1105,13 +1151,13 @@ impl<'a> Builder<'a> {
                 }
             };
             let f = by_rank[r];
-            debug_assert_eq!(self.mark[f as usize], unassigned);
-            self.mark[f as usize] = left;
+            debug_assert_eq!(get(mark, f), unassigned);
+            set(mark, f, left);
             self.rest[r / 64] &= !(1 << (r % 64));
             taken += 1;
             for g in nbrs[f as usize] {
-                if g != NO_FACE && self.mark[g as usize] == unassigned && self.queued[g as usize] != id {
-                    self.queued[g as usize] = id;
+                if g != NO_FACE && get(mark, g) == unassigned && get(queued, g) != id {
+                    set(queued, g, id);
                     self.queue.push(rank[g as usize][axis]);
                 }
             }
@@ -1124,16 +1170,16 @@ impl<'a> Builder<'a> {
         for r in self.queue.iter() {
             let g = by_rank[r as usize];
             for h in std::iter::once(g).chain(nbrs[g as usize]) {
-                if h != NO_FACE && (h == g || self.mark[h as usize] == left) && self.cut_stamp[h as usize] != id {
-                    self.cut_stamp[h as usize] = id;
+                if h != NO_FACE && (h == g || get(mark, h) == left) && get(cut_stamp, h) != id {
+                    set(cut_stamp, h, id);
                     self.cut.push(h);
                 }
             }
         }
         for i in 0..self.cut.len() {
             for h in nbrs[self.cut[i] as usize] {
-                if h != NO_FACE && self.mark[h as usize] >> 1 == id && self.cut_stamp[h as usize] != id {
-                    self.cut_stamp[h as usize] = id;
+                if h != NO_FACE && get(mark, h) >> 1 == id && get(cut_stamp, h) != id {
+                    set(cut_stamp, h, id);
                     self.cut.push(h);
                 }
             }
@@ -1147,8 +1193,8 @@ impl<'a> Builder<'a> {
                     let f = by_rank[w * 64 + bits.trailing_zeros() as usize];
                     bits &= bits - 1;
                     order[*at] = f;
-                    if self.cut_stamp[f as usize] == id {
-                        self.slot_of[f as usize] = *at as u32;
+                    if get(cut_stamp, f) == id {
+                        set(slot_of, f, *at as u32);
                     }
                     *at += 1;
                 }
@@ -1164,8 +1210,8 @@ impl<'a> Builder<'a> {
         debug_assert!(order[lo..hi]
             .iter()
             .enumerate()
-            .all(|(k, &f)| self.mark[f as usize] == 2 * id + (lo + k >= mid) as u32
-                && (self.cut_stamp[f as usize] != id || self.slot_of[f as usize] as usize == lo + k)));
+            .all(|(k, &f)| get(&self.marks.mark, f) == 2 * id + (lo + k >= mid) as u32
+                && (get(&self.marks.cut_stamp, f) != id || get(&self.marks.slot_of, f) as usize == lo + k)));
         // Strays first, then notches (one neighbour on their side, two on the other),
         // per side; a stray is swapped with a stray of the other side, else with a notch.
         // Both have a neighbour on the other side, so only the faces along the cut and
@@ -1173,13 +1219,13 @@ impl<'a> Builder<'a> {
         // so the second pass's strays and notches are among them too) are counted; each
         // list is then put in slot order.
         for _ in 0..2 {
-            let mark = &self.mark;
+            let FaceMarks { mark, slot_of, .. } = self.marks;
             let count = |f: u32| {
-                let own = mark[f as usize];
+                let own = get(mark, f);
                 let (mut same, mut other) = (0, 0);
                 for g in nbrs[f as usize] {
                     if g != NO_FACE {
-                        let m = mark[g as usize];
+                        let m = get(mark, g);
                         same += (m == own) as u32;
                         other += (m == own ^ 1) as u32;
                     }
@@ -1191,7 +1237,7 @@ impl<'a> Builder<'a> {
                 self.notches[side].clear();
             }
             for &f in &self.cut {
-                let slot = self.slot_of[f as usize] as usize;
+                let slot = get(slot_of, f) as usize;
                 let side = (slot >= mid) as usize;
                 match count(f) {
                     (0, o) if o > 0 => self.strays[side].push(slot),
@@ -1215,10 +1261,10 @@ impl<'a> Builder<'a> {
             for &(a, b) in &pairs {
                 order.swap(a, b);
                 let (fa, fb) = (order[a], order[b]);
-                self.mark[fa as usize] = 2 * id;
-                self.mark[fb as usize] = 2 * id + 1;
-                self.slot_of[fa as usize] = a as u32;
-                self.slot_of[fb as usize] = b as u32;
+                set(mark, fa, 2 * id);
+                set(mark, fb, 2 * id + 1);
+                set(slot_of, fa, a as u32);
+                set(slot_of, fb, b as u32);
             }
             self.pairs = pairs;
         }

@@ -168,7 +168,7 @@ pub(super) struct DiskPatches {
 /// (see [`DiskBuilder::node`]).
 pub(super) fn disk_patches(
     n_vertices: usize,
-    nodes: &[Node],
+    nodes: &[TreeNode],
     slot_faces: &[[u32; 3]],
     slot_nbrs: &[[u32; 3]],
     kinds: &[u8],
@@ -206,7 +206,7 @@ struct NodeCount {
 
 /// Scratch of [`disk_patches`].
 struct DiskBuilder<'a> {
-    nodes: &'a [Node],
+    nodes: &'a [TreeNode],
     slot_faces: &'a [[u32; 3]],
     slot_nbrs: &'a [[u32; 3]],
     kinds: &'a [u8],
@@ -235,7 +235,7 @@ struct BoundaryEdge {
 impl<'a> DiskBuilder<'a> {
     fn new(
         n_vertices: usize,
-        nodes: &'a [Node],
+        nodes: &'a [TreeNode],
         slot_faces: &'a [[u32; 3]],
         slot_nbrs: &'a [[u32; 3]],
         kinds: &'a [u8],

@@ -294,7 +294,7 @@ fn parallel_tree_build_gives_the_sequential_tree() {
     let (seq_nodes, seq_order) = build_tree(&centroids, &nbrs, 0);
     let (par_nodes, par_order) = build_tree(&centroids, &nbrs, PAR_BUILD_DEPTH);
     assert_eq!(seq_order, par_order);
-    let shape = |n: &[Node]| n.iter().map(|nd| (nd.a, nd.b, nd.leaf)).collect::<Vec<_>>();
+    let shape = |n: &[TreeNode]| n.iter().map(|nd| (nd.a, nd.b, nd.leaf)).collect::<Vec<_>>();
     assert_eq!(shape(&seq_nodes), shape(&par_nodes));
 }
 
@@ -641,7 +641,7 @@ fn normal_cones_bound_every_normal_they_hold() {
 /// version.
 fn disk_patches_by_faces(
     n_vertices: usize,
-    nodes: &[Node],
+    nodes: &[TreeNode],
     slot_faces: &[[u32; 3]],
     slot_nbrs: &[[u32; 3]],
     kinds: &[u8],
