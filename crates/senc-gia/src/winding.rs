@@ -179,6 +179,32 @@ fn face_areas(mesh: &TriMesh, area2: &mut Vec<f64>) {
     });
 }
 
+/// Per chord edge of a piece, in piece, cycle and edge order: the piece's fill id, the
+/// piece across the edge (`None` where the cut is not closed) and the winding step across
+/// it (see [`chord_sign`]; 0 without a piece across).
+fn chord_steps(
+    mesh: &TriMesh,
+    cut: &CutMesh,
+    inter: &SelfIntersections,
+    nodes: &[Vec3],
+) -> Vec<(u32, Option<u32>, i64)> {
+    let mut out = Vec::new();
+    for (k, piece) in cut.pieces.iter().enumerate() {
+        let id = (cut.n_faces + k) as u32;
+        for cycle in &piece.cycles {
+            for i in 0..cycle.len() {
+                let (from, tag) = cycle[i];
+                let EdgeTag::Chord { segment } = tag else { continue };
+                let to = cycle[(i + 1) % cycle.len()].0;
+                let across = cut.piece_with_directed_edge(to, from);
+                let delta = across.map_or(0, |_| chord_sign(mesh, inter, nodes, piece.face, segment, from, to));
+                out.push((id, across, delta));
+            }
+        }
+    }
+    out
+}
+
 /// Labels the patches of the cut surface; returns their number (`scratch.patch_of` holds
 /// each fill id's patch). Uses what [`prelabel`] computed for this call, where its crossed
 /// faces are the faces `cut` split; computes it here otherwise.
@@ -405,7 +431,21 @@ pub(crate) fn classify(
     has_open_holes: bool,
     mut ray: impl FnMut(&AxisRay, u32) -> Option<i64>,
 ) -> Classified {
-    let n_patches = label_patches(mesh, cut, scratch);
+    // The labelling, and beside it what needs only the cut: per chord edge of a piece (in
+    // piece, cycle and edge order) the piece across it and the winding step, and every
+    // piece's area for the probes.
+    let (n_patches, (chords, piece_areas)) = rayon::join(
+        || label_patches(mesh, cut, scratch),
+        || {
+            rayon::join(
+                || chord_steps(mesh, cut, inter, nodes),
+                || {
+                    let ids = cut.n_faces as u32..(cut.n_faces + cut.pieces.len()) as u32;
+                    ids.map(|id| volume::area(mesh, cut, nodes, id)).collect::<Vec<f64>>()
+                },
+            )
+        },
+    );
     let patch_of = &scratch.patch_of;
     let mut patches =
         vec![
@@ -414,25 +454,14 @@ pub(crate) fn classify(
         ];
     // Walls `(left patch, right patch, w_left − w_right)`, one per chord edge of a piece, and
     // the patches along each segment.
-    let mut walls: Vec<(u32, u32, i64)> = Vec::new();
+    let mut walls: Vec<(u32, u32, i64)> = Vec::with_capacity(chords.len());
     let mut segment_patch: Vec<(u32, u32)> = Vec::new();
-    for k in 0..cut.pieces.len() {
-        let id = cut.n_faces + k;
-        let face = cut.pieces[k].face;
-        for cycle in &cut.pieces[k].cycles {
-            for i in 0..cycle.len() {
-                let (from, tag) = cycle[i];
-                let EdgeTag::Chord { segment } = tag else { continue };
-                let to = cycle[(i + 1) % cycle.len()].0;
-                let Some(nb) = cut.piece_with_directed_edge(to, from) else {
-                    // Nothing across the segment: the cut is not closed here.
-                    walls.push((patch_of[id], u32::MAX, 0));
-                    continue;
-                };
-                let delta = chord_sign(mesh, inter, nodes, face, segment, from, to);
-                walls.push((patch_of[id], patch_of[nb as usize], delta));
-            }
-        }
+    for &(id, across, delta) in &chords {
+        walls.push(match across {
+            // Nothing across the segment: the cut is not closed here.
+            None => (patch_of[id as usize], u32::MAX, 0),
+            Some(nb) => (patch_of[id as usize], patch_of[nb as usize], delta),
+        });
     }
     // Probes per patch: its largest uncut face and its largest piece. An uncut face's
     // centroid lies well inside it; a ray that finds its origin exactly on another face is
@@ -448,7 +477,7 @@ pub(crate) fn classify(
             (&mut best_face[p], scratch.area2[id as usize])
         } else {
             patches[p].n_pieces += 1;
-            (&mut best_piece[p], volume::area(mesh, cut, nodes, id))
+            (&mut best_piece[p], piece_areas[id as usize - cut.n_faces])
         };
         if best.1 == u32::MAX || area > best.0 {
             *best = (area, id);

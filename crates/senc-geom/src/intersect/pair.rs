@@ -73,29 +73,36 @@ pub(super) fn assemble(mesh: &TriMesh, results: Vec<PairResult>, n_candidate_pai
     }
     keys.sort_unstable();
     keys.dedup();
-    let points: Vec<IntersectionPoint> = keys.iter().map(|&(e, f)| crossing_point(mesh, e, f)).collect();
-    let point_index = |c: &Crossing| -> u32 {
-        let e = topo.find_edge(c.edge[0], c.edge[1]).expect("edge exists");
-        keys.binary_search(&(e, c.face)).expect("point was collected") as u32
-    };
-    let mut segments = Vec::with_capacity(results.len());
-    let mut n_inconsistent = 0;
-    for r in &results {
-        if r.inconsistent {
-            n_inconsistent += 1;
-            continue;
-        }
-        let ends = match (r.loop_vertex, r.crossings) {
-            (Some(s), [Some(c), None]) => [SegmentEnd::LoopVertex(s), SegmentEnd::Point(point_index(&c))],
-            (None, [Some(c0), Some(c1)]) => {
-                let (a, b) = (point_index(&c0), point_index(&c1));
-                [SegmentEnd::Point(a.min(b)), SegmentEnd::Point(a.max(b))]
+    // The points on one side, the segments (which need only the points' indices) on the
+    // other.
+    let (points, (segments, n_inconsistent)) = rayon::join(
+        || keys.iter().map(|&(e, f)| crossing_point(mesh, e, f)).collect::<Vec<IntersectionPoint>>(),
+        || {
+            let point_index = |c: &Crossing| -> u32 {
+                let e = topo.find_edge(c.edge[0], c.edge[1]).expect("edge exists");
+                keys.binary_search(&(e, c.face)).expect("point was collected") as u32
+            };
+            let mut segments = Vec::with_capacity(results.len());
+            let mut n_inconsistent = 0;
+            for r in &results {
+                if r.inconsistent {
+                    n_inconsistent += 1;
+                    continue;
+                }
+                let ends = match (r.loop_vertex, r.crossings) {
+                    (Some(s), [Some(c), None]) => [SegmentEnd::LoopVertex(s), SegmentEnd::Point(point_index(&c))],
+                    (None, [Some(c0), Some(c1)]) => {
+                        let (a, b) = (point_index(&c0), point_index(&c1));
+                        [SegmentEnd::Point(a.min(b)), SegmentEnd::Point(a.max(b))]
+                    }
+                    _ => continue,
+                };
+                segments.push(Segment { faces: r.faces, ends });
             }
-            _ => continue,
-        };
-        segments.push(Segment { faces: r.faces, ends });
-    }
-    segments.sort_unstable_by_key(|s| (s.faces, s.ends));
+            segments.sort_unstable_by_key(|s| (s.faces, s.ends));
+            (segments, n_inconsistent)
+        },
+    );
     SelfIntersections { points, segments, n_candidate_pairs, n_inconsistent_pairs: n_inconsistent }
 }
 
