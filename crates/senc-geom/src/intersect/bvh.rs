@@ -233,20 +233,18 @@ pub(crate) struct SearchTree {
     pub(super) node_slots: Vec<[u32; 2]>,
 }
 
-/// The tree's nodes and slot order over faces with these centroids and edge neighbours
-/// (see [`Builder::node`]; `par` levels of parallel halves).
-pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Vec<TreeNode>, Vec<u32>) {
-    let n = centroids.len();
+/// The tree's nodes and slot order over faces with these centroid keys per axis (see
+/// [`coordinate_key`]) and edge neighbours (see [`Builder::node`]; `par` levels of parallel
+/// halves).
+pub(super) fn build_tree(keys: [&[u64]; 3], nbrs: &[[u32; 3]], par: u32) -> (Vec<TreeNode>, Vec<u32>) {
+    let n = nbrs.len();
     let mut order: Vec<u32> = (0..n as u32).collect();
     let mut nodes = Vec::new();
     if n > 0 {
-        // The faces sorted along each axis once (keys computed once, sorted with their
-        // faces); each split reads its faces' order along its axis from their ranks.
-        let sorted_along = |axis: usize| {
-            let keys: Vec<u64> = (0..n as u32).map(|f| axis_key(centroids, axis, f).0).collect();
-            radix_order(&keys)
-        };
-        let (x, (y, z)) = rayon::join(|| sorted_along(0), || rayon::join(|| sorted_along(1), || sorted_along(2)));
+        // The faces sorted along each axis once; each split reads its faces' order along its
+        // axis from their ranks.
+        let (x, (y, z)) =
+            rayon::join(|| radix_order(keys[0]), || rayon::join(|| radix_order(keys[1]), || radix_order(keys[2])));
         let mut rank = vec![[0u32; 3]; n];
         for (axis, list) in [&x, &y, &z].into_iter().enumerate() {
             for (r, &f) in list.iter().enumerate() {
@@ -254,7 +252,7 @@ pub(super) fn build_tree(centroids: &[Vec3], nbrs: &[[u32; 3]], par: u32) -> (Ve
             }
         }
         let marks = FaceMarks::new(n);
-        let mut b = Builder::new(nbrs, centroids, &rank, [&x, &y, &z], &marks, 0);
+        let mut b = Builder::new(nbrs, keys, &rank, [&x, &y, &z], &marks, 0);
         nodes = vec![TreeNode { a: 0, b: 0, leaf: true }; subtree_nodes(n)];
         b.node(&mut nodes, 0, &mut order, 0, n, par);
     }
@@ -304,12 +302,21 @@ pub(super) fn radix_order(keys: &[u64]) -> Vec<u32> {
     order
 }
 
-/// Sort key of face `f` along `axis`: its centroid coordinate as ordered bits, then its
-/// index (a total order, so each node's faces have one sorted order).
+/// A coordinate as bits that order as the numbers do (not NaN).
 #[inline]
-pub(super) fn axis_key(centroids: &[Vec3], axis: usize, f: u32) -> (u64, u32) {
-    let b = centroids[f as usize][axis].to_bits();
-    (if b >> 63 == 1 { !b } else { b | (1 << 63) }, f)
+pub(super) fn coordinate_key(x: f64) -> u64 {
+    let b = x.to_bits();
+    if b >> 63 == 1 {
+        !b
+    } else {
+        b | (1 << 63)
+    }
+}
+
+/// The coordinate of a [`coordinate_key`].
+#[inline]
+pub(super) fn key_coordinate(key: u64) -> f64 {
+    f64::from_bits(if key >> 63 == 1 { key & !(1 << 63) } else { !key })
 }
 
 impl SearchTree {
@@ -319,22 +326,17 @@ impl SearchTree {
         // The tree on one side, the vertex rings (topology only) on the other.
         let ((nodes, order, nbrs), (ring_kind, (ring_start, ring_links), pinched)) = rayon::join(
             || {
-                let (centroids, nbrs) = rayon::join(
-                    || {
-                        let mut c = Vec::with_capacity(n);
-                        (0..n)
-                            .into_par_iter()
-                            .with_min_len(PAR_MIN_ITEMS)
-                            .map(|f| {
-                                let [a, b, c] = mesh.triangle(f);
-                                (a + b + c) / 3.0
-                            })
-                            .collect_into_vec(&mut c);
-                        c
-                    },
-                    || face_neighbours(mesh),
+                // Per axis, the key of every face's centroid coordinate, `(a + b + c) / 3`.
+                let (pos, faces) = (mesh.positions(), mesh.faces());
+                let keys_along = |axis: usize| -> Vec<u64> {
+                    let c = |v: u32| pos[v as usize][axis];
+                    faces.iter().map(|&[a, b, cc]| coordinate_key((c(a) + c(b) + c(cc)) / 3.0)).collect()
+                };
+                let ((x, y), (z, nbrs)) = rayon::join(
+                    || rayon::join(|| keys_along(0), || keys_along(1)),
+                    || rayon::join(|| keys_along(2), || face_neighbours(mesh)),
                 );
-                let (nodes, order) = build_tree(&centroids, &nbrs, PAR_BUILD_DEPTH);
+                let (nodes, order) = build_tree([&x, &y, &z], &nbrs, PAR_BUILD_DEPTH);
                 (nodes, order, nbrs)
             },
             || {
@@ -473,7 +475,7 @@ impl SelfIntersector {
         let topology = mesh.topology_arc();
         let tree = Arc::clone(topology.search.0.get_or_init(|| Arc::new(SearchTree::build(mesh))));
         let n = tree.order.len();
-        Self {
+        let mut ix = Self {
             slot_groups: vec![0; n],
             leaf_verts: Arc::clone(&tree.leaf_verts),
             node_groups: vec![0; tree.nodes.len()],
@@ -491,7 +493,10 @@ impl SelfIntersector {
             group_cones: Vec::new(),
             node_cones: Vec::new(),
             units: Vec::new(),
-        }
+        };
+        // The refit's buffers are allocated here, by the caller's thread.
+        ix.size_buffers();
+        ix
     }
 
     /// Whether `mesh` has the faces the tree was made for (the same topology, or equal
@@ -577,12 +582,11 @@ impl SelfIntersector {
         }
     }
 
-    /// Face boxes and planes (slot order), node boxes (bottom-up) and vertex rings for the
-    /// current positions.
-    pub(super) fn refit(&mut self, mesh: &TriMesh) {
+    /// Sizes the per-call buffers of [`Self::refit`] (a no-op once sized), in parallel
+    /// chunks (the first writes to fresh memory).
+    fn size_buffers(&mut self) {
         let n = self.tree.order.len();
         let n_groups = n.div_ceil(LEAF_SIZE);
-        // Sized on the first call, on both threads (the first writes to fresh memory).
         rayon::join(
             || grow_par(&mut self.planes, n, FacePlane::ZERO),
             || {
@@ -595,6 +599,12 @@ impl SelfIntersector {
                 grow_par(&mut self.node_cones, self.nodes.len(), NormalCone::NONE);
             },
         );
+    }
+
+    /// Face boxes and planes (slot order), node boxes (bottom-up) and vertex rings for the
+    /// current positions.
+    pub(super) fn refit(&mut self, mesh: &TriMesh) {
+        self.size_buffers();
         let pos = mesh.positions();
         let slot_faces = &self.tree.slot_faces;
         // One parallel pass over leaf groups: planes per slot, then the group's box, f32
@@ -709,17 +719,19 @@ fn refit_subtree(
 }
 
 /// Tree construction state: edge neighbours (see [`face_neighbours`]), face centroids, each
-/// face's rank along each axis in the order of [`axis_key`] and the faces by rank, and
+/// face's rank along each axis (by centroid key, then index: a total order, so each node's
+/// faces have one sorted order along each axis) and the faces by rank, and
 /// scratch.
 pub(super) struct Builder<'a> {
     pub(super) nbrs: &'a [[u32; 3]],
     /// Slot of `order[0]` of the slice this builder is given (nonzero for the builders of
     /// second halves built as separate tasks).
     pub(super) base: usize,
-    pub(super) centroids: &'a [Vec3],
+    /// Per axis and face: the key of its centroid coordinate ([`coordinate_key`]).
+    pub(super) keys: [&'a [u64]; 3],
     /// Per face: its position in `by_rank[axis]`, per axis.
     pub(super) rank: &'a [[u32; 3]],
-    /// Per axis: all faces sorted by [`axis_key`].
+    /// Per axis: all faces sorted by centroid key along it, then by index.
     pub(super) by_rank: [&'a [u32]; 3],
     /// Per-face marks, shared with the builders of the other tasks.
     pub(super) marks: &'a FaceMarks,
@@ -796,7 +808,7 @@ type SmallSet = u64;
 pub(super) struct SmallSubtree {
     /// Index → face.
     faces: [u32; SMALL_MAX],
-    /// Per axis: position → index, and index → position (in the order of [`axis_key`]).
+    /// Per axis: position → index, and index → position (in the order of the ranks).
     at: [[u8; SMALL_MAX]; 3],
     pos: [[u8; SMALL_MAX]; 3],
     /// Per axis and position: the positions of the face's edge neighbours in the subtree.
@@ -844,16 +856,16 @@ fn bits(mut set: SmallSet) -> impl Iterator<Item = usize> {
 impl<'a> Builder<'a> {
     pub(super) fn new(
         nbrs: &'a [[u32; 3]],
-        centroids: &'a [Vec3],
+        keys: [&'a [u64]; 3],
         rank: &'a [[u32; 3]],
         by_rank: [&'a [u32]; 3],
         marks: &'a FaceMarks,
         base: usize,
     ) -> Self {
-        let n = centroids.len();
+        let n = nbrs.len();
         Builder {
             nbrs,
-            centroids,
+            keys,
             rank,
             by_rank,
             marks,
@@ -915,13 +927,12 @@ impl<'a> Builder<'a> {
         if par > 0 && hi - lo >= PAR_BUILD_MIN {
             // The second half as its own task (the halves share no face).
             let (first, second) = order[..hi].split_at_mut(mid);
-            let (nbrs, centroids, rank, by_rank, marks) =
-                (self.nbrs, self.centroids, self.rank, self.by_rank, self.marks);
+            let (nbrs, keys, rank, by_rank, marks) = (self.nbrs, self.keys, self.rank, self.by_rank, self.marks);
             let base = self.base + mid;
             rayon::join(
                 || self.node(first_nodes, l, first, lo, mid, par - 1),
                 || {
-                    let mut other = Builder::new(nbrs, centroids, rank, by_rank, marks, base);
+                    let mut other = Builder::new(nbrs, keys, rank, by_rank, marks, base);
                     other.node(second_nodes, r, second, 0, hi - mid, par - 1);
                 },
             );
@@ -1000,7 +1011,8 @@ impl<'a> Builder<'a> {
         let sm = &*self.small;
         let along = [sm.along(0, set), sm.along(1, set), sm.along(2, set)];
         // The extreme positions along each axis hold the extreme coordinates.
-        let coord = |ax: usize, p: u32| self.centroids[sm.faces[sm.at[ax][p as usize] as usize] as usize][ax];
+        let coord =
+            |ax: usize, p: u32| key_coordinate(self.keys[ax][sm.faces[sm.at[ax][p as usize] as usize] as usize]);
         let ext = Vec3::from_fn(|ax, _| {
             coord(ax, SmallSet::BITS - 1 - along[ax].leading_zeros()) - coord(ax, along[ax].trailing_zeros())
         });
@@ -1097,8 +1109,8 @@ impl<'a> Builder<'a> {
             }
         }
         // The faces of the extreme ranks have the extreme coordinates.
-        let (c, by_rank) = (self.centroids, self.by_rank);
-        let coord = |ax: usize, r: u32| c[by_rank[ax][r as usize] as usize][ax];
+        let (keys, by_rank) = (self.keys, self.by_rank);
+        let coord = |ax: usize, r: u32| key_coordinate(keys[ax][by_rank[ax][r as usize] as usize]);
         let ext = Vec3::from_fn(|ax, _| coord(ax, last[ax]) - coord(ax, first[ax]));
         let axis = if ext.x >= ext.y && ext.x >= ext.z {
             0
@@ -1116,7 +1128,7 @@ impl<'a> Builder<'a> {
     /// always taking the queued face that is smallest along `axis` (so the cut follows the
     /// median plane, as in a median split, while the first part stays edge-connected where
     /// the faces allow); when the queue runs dry (another component), growth restarts from
-    /// the smallest face not taken. Both parts are written in the order of [`axis_key`]
+    /// the smallest face not taken. Both parts are written in rank order
     /// along `axis`, read from the rank bits of [`Self::rest`].
     pub(super) fn grow_split(
         &mut self,

@@ -291,11 +291,22 @@ fn parallel_tree_build_gives_the_sequential_tree() {
     assert!(m.n_faces() >= 4 * PAR_BUILD_MIN, "{} faces: too few to build in parallel", m.n_faces());
     let centroids: Vec<Vec3> = (0..m.n_faces()).map(|f| m.triangle(f).iter().sum::<Vec3>() / 3.0).collect();
     let nbrs = face_neighbours(&m);
-    let (seq_nodes, seq_order) = build_tree(&centroids, &nbrs, 0);
-    let (par_nodes, par_order) = build_tree(&centroids, &nbrs, PAR_BUILD_DEPTH);
+    let keys = centroid_keys(&centroids);
+    let (seq_nodes, seq_order) = build_tree([&keys[0], &keys[1], &keys[2]], &nbrs, 0);
+    let (par_nodes, par_order) = build_tree([&keys[0], &keys[1], &keys[2]], &nbrs, PAR_BUILD_DEPTH);
     assert_eq!(seq_order, par_order);
     let shape = |n: &[TreeNode]| n.iter().map(|nd| (nd.a, nd.b, nd.leaf)).collect::<Vec<_>>();
     assert_eq!(shape(&seq_nodes), shape(&par_nodes));
+}
+
+/// Sort key of face `f` along `axis`: its centroid coordinate's key, then its index.
+fn axis_key(centroids: &[Vec3], axis: usize, f: u32) -> (u64, u32) {
+    (coordinate_key(centroids[f as usize][axis]), f)
+}
+
+/// Per axis, the keys of the centroids' coordinates (the input of [`build_tree`]).
+fn centroid_keys(centroids: &[Vec3]) -> [Vec<u64>; 3] {
+    std::array::from_fn(|axis| centroids.iter().map(|c| coordinate_key(c[axis])).collect())
 }
 
 /// The tree of [`build_tree`], built the plain way: each node's faces sorted along every
@@ -408,7 +419,8 @@ fn tree_build_gives_the_reference_tree() {
     for m in &meshes {
         let centroids: Vec<Vec3> = (0..m.n_faces()).map(|f| m.triangle(f).iter().sum::<Vec3>() / 3.0).collect();
         let nbrs = face_neighbours(m);
-        let (nodes, order) = build_tree(&centroids, &nbrs, PAR_BUILD_DEPTH);
+        let keys = centroid_keys(&centroids);
+        let (nodes, order) = build_tree([&keys[0], &keys[1], &keys[2]], &nbrs, PAR_BUILD_DEPTH);
         let (ref_nodes, ref_order) = reference_tree(&centroids, &nbrs);
         assert_eq!(order, ref_order);
         assert_eq!(nodes.iter().map(|nd| (nd.a, nd.b, nd.leaf)).collect::<Vec<_>>(), ref_nodes);
