@@ -8,17 +8,12 @@
 //! (`first_call_new_topology`: the tree is built in the call).
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
-use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
+use senc_geom::{close_holes, HoleSelection, TriMesh};
 use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, VolumeRule};
 use senc_testmesh::garment_benchmark;
 
 fn tshirt_frame() -> TriMesh {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/fixtures/garment_frames");
-    let faces: Vec<[u32; 3]> =
-        rmp_serde::from_slice(&std::fs::read(format!("{dir}/tshirt_faces.msgpack")).unwrap()).unwrap();
-    let pos: Vec<[f64; 3]> =
-        rmp_serde::from_slice(&std::fs::read(format!("{dir}/tshirt_0020.msgpack")).unwrap()).unwrap();
-    TriMesh::new(pos.into_iter().map(Vec3::from).collect(), faces).unwrap()
+    senc_testmesh::garment_frame("tshirt", 20).unwrap()
 }
 
 fn bench(c: &mut Criterion) {

@@ -2,8 +2,6 @@
 //! open, for the oracle and the libigl timings:
 //! `cargo run --release -p senc-gia --example export_garment_frame -- tshirt 20 /tmp/tshirt_0020.obj`.
 
-use senc_geom::Vec3;
-
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let [_, garment, frame, out] = args.as_slice() else {
@@ -11,13 +9,6 @@ fn main() {
         std::process::exit(2);
     };
     let frame: u32 = frame.parse().expect("a frame number");
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/fixtures/garment_frames");
-    let faces: Vec<[u32; 3]> =
-        rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_faces.msgpack")).expect("faces file"))
-            .expect("faces");
-    let pos: Vec<[f64; 3]> =
-        rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_{frame:04}.msgpack")).expect("frame file"))
-            .expect("positions");
-    let pos: Vec<Vec3> = pos.into_iter().map(Vec3::from).collect();
+    let (pos, faces) = senc_testmesh::garment_frame_parts(garment, frame).expect("a committed garment frame");
     senc_geom::obj::write_obj(out, &pos, &faces).expect("write");
 }

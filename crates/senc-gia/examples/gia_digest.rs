@@ -9,17 +9,12 @@
 //! the frame (a tree built at other positions, refit); both volume rules and both gradient
 //! modes on frame 20; the garment benchmark.
 
-use senc_geom::{close_holes, Closure, HoleSelection, TriMesh, Vec3};
+use senc_geom::{close_holes, Closure, HoleSelection, TriMesh};
 use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, VolumeRule};
-use senc_testmesh::garment_benchmark;
+use senc_testmesh::{garment_benchmark, garment_frame};
 
 fn frame(garment: &str, frame: u32) -> TriMesh {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/fixtures/garment_frames");
-    let faces: Vec<[u32; 3]> =
-        rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_faces.msgpack")).unwrap()).unwrap();
-    let pos: Vec<[f64; 3]> =
-        rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_{frame:04}.msgpack")).unwrap()).unwrap();
-    TriMesh::new(pos.into_iter().map(Vec3::from).collect(), faces).unwrap()
+    garment_frame(garment, frame).unwrap()
 }
 
 fn print(name: &str, closure: &Closure, ws: &mut GiaWorkspace, opts: &GiaOptions) {

@@ -2,16 +2,11 @@
 //! the workspace), against every hole fanned: one CSV row per frame and hole.
 //! `cargo run --release -p senc-gia --example open_holes_table`.
 
-use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
+use senc_geom::{close_holes, HoleSelection, TriMesh};
 use senc_gia::{GiaOptions, GiaWorkspace};
 
-fn frame(garment: &str, frame: u64) -> TriMesh {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/fixtures/garment_frames");
-    let faces: Vec<[u32; 3]> =
-        rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_faces.msgpack")).unwrap()).unwrap();
-    let pos: Vec<[f64; 3]> =
-        rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_{frame:04}.msgpack")).unwrap()).unwrap();
-    TriMesh::new(pos.into_iter().map(Vec3::from).collect(), faces).unwrap()
+fn frame(garment: &str, frame: u32) -> TriMesh {
+    senc_testmesh::garment_frame(garment, frame).unwrap()
 }
 
 fn main() {

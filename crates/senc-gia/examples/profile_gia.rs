@@ -23,12 +23,7 @@ fn main() {
     let mesh = match std::env::var("SENC_PROFILE_FRAME") {
         Ok(name) => {
             let (garment, frame) = name.split_once('_').expect("GARMENT_NNNN");
-            let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/fixtures/garment_frames");
-            let faces: Vec<[u32; 3]> =
-                rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_faces.msgpack")).unwrap()).unwrap();
-            let pos: Vec<[f64; 3]> =
-                rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_{frame}.msgpack")).unwrap()).unwrap();
-            senc_geom::TriMesh::new(pos.into_iter().map(senc_geom::Vec3::from).collect(), faces).unwrap()
+            senc_testmesh::garment_frame(garment, frame.parse().expect("a frame number")).unwrap()
         }
         Err(_) => garment_benchmark().unwrap(),
     };

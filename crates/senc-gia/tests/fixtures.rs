@@ -3,7 +3,7 @@
 
 use senc_geom::cut::CutMesh;
 use senc_geom::intersect::{self_intersections, SelfIntersector};
-use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
+use senc_geom::{close_holes, HoleSelection, TriMesh};
 use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, VolumeRule};
 use senc_testmesh::fixture;
 
@@ -143,12 +143,7 @@ fn the_smaller_side_rule_agrees_wherever_it_answers() {
 
 /// One simulated garment frame: positions and faces from `tests/fixtures/garment_frames/`.
 fn garment_frame(garment: &str, frame: u64) -> TriMesh {
-    let dir = format!("{}/../../tests/fixtures/garment_frames", env!("CARGO_MANIFEST_DIR"));
-    let faces: Vec<[u32; 3]> =
-        rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_faces.msgpack")).unwrap()).unwrap();
-    let pos: Vec<[f64; 3]> =
-        rmp_serde::from_slice(&std::fs::read(format!("{dir}/{garment}_{frame:04}.msgpack")).unwrap()).unwrap();
-    TriMesh::new(pos.into_iter().map(Vec3::from).collect(), faces).unwrap()
+    senc_testmesh::garment_frame(garment, u32::try_from(frame).unwrap()).unwrap()
 }
 
 fn garment_answers() -> Vec<serde_json::Value> {

@@ -13,7 +13,8 @@
 //! The named fixtures in [`FIXTURES`] are the meshes whose reference answers (libigl's
 //! intersecting face pairs, penetration volumes of the exact arrangement) are committed under
 //! `tests/fixtures/` at the repository root: a fixture is its generator call here plus its
-//! answer file there, so no mesh file needs to be committed.
+//! answer file there, so no mesh file needs to be committed. The garment frames simulated by
+//! the project's networks (`tests/fixtures/garment_frames/`) are read by [`garment_frame`].
 //!
 //! # Example
 //! ```
@@ -68,6 +69,35 @@ pub enum ShapeError {
     /// collapse faces, e.g. a jitter larger than the faces).
     #[error("generated mesh is invalid: {0}")]
     Mesh(#[from] MeshError),
+    /// A committed garment frame could not be read ([`garment_frame`]).
+    #[error("cannot read the garment frame file {path}: {reason} (the frames are in tests/fixtures/garment_frames/)")]
+    GarmentFrame {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        reason: String,
+    },
+}
+
+/// The positions and faces of a committed garment frame,
+/// `tests/fixtures/garment_frames/{garment}_faces.msgpack` and `{garment}_{frame:04}.msgpack`
+/// (e.g. `garment_frame_parts("tshirt", 20)`), as stored: not validated as a mesh.
+pub fn garment_frame_parts(garment: &str, frame: u32) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), ShapeError> {
+    fn read<T: serde::de::DeserializeOwned>(path: String) -> Result<T, ShapeError> {
+        let bytes =
+            std::fs::read(&path).map_err(|e| ShapeError::GarmentFrame { path: path.clone(), reason: e.to_string() })?;
+        rmp_serde::from_slice(&bytes).map_err(|e| ShapeError::GarmentFrame { path, reason: e.to_string() })
+    }
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/fixtures/garment_frames");
+    let faces: Vec<[u32; 3]> = read(format!("{dir}/{garment}_faces.msgpack"))?;
+    let pos: Vec<[f64; 3]> = read(format!("{dir}/{garment}_{frame:04}.msgpack"))?;
+    Ok((pos.into_iter().map(Vec3::from).collect(), faces))
+}
+
+/// A committed garment frame as a validated mesh (see [`garment_frame_parts`]).
+pub fn garment_frame(garment: &str, frame: u32) -> Result<TriMesh, ShapeError> {
+    let (pos, faces) = garment_frame_parts(garment, frame)?;
+    Ok(TriMesh::new(pos, faces)?)
 }
 
 fn positive(name: &'static str, value: f64) -> Result<f64, ShapeError> {

@@ -245,3 +245,11 @@ fn committed_fixture_answers_match_the_generators() {
     }
     assert_eq!(checked, FIXTURES.len());
 }
+
+#[test]
+fn garment_frames_load_and_a_missing_frame_is_a_typed_error() {
+    let shirt = garment_frame("tshirt", 20).unwrap();
+    assert!(shirt.n_faces() > 10_000, "{} faces", shirt.n_faces());
+    assert!(matches!(garment_frame("tshirt", 9_999), Err(ShapeError::GarmentFrame { .. })));
+    assert!(matches!(garment_frame("no_such_garment", 20), Err(ShapeError::GarmentFrame { .. })));
+}
