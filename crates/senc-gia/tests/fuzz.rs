@@ -8,7 +8,9 @@ use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
 use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, SizeRule, VolumeRule};
 use senc_testmesh::{icosphere, tube, Caps};
 
-fn crumple(base: &TriMesh, rng: &mut ChaCha8Rng) -> Vec<Vec3> {
+/// Crumpled positions, and whether they are in general position (neither snapped nor
+/// collapsed).
+fn crumple(base: &TriMesh, rng: &mut ChaCha8Rng) -> (Vec<Vec3>, bool) {
     let amp: f64 = rng.random_range(0.0..0.8);
     let snap = rng.random_bool(0.4);
     let collapse = rng.random_bool(0.1);
@@ -31,7 +33,7 @@ fn crumple(base: &TriMesh, rng: &mut ChaCha8Rng) -> Vec<Vec3> {
             *q = target;
         }
     }
-    p
+    (p, !snap && !collapse)
 }
 
 #[test]
@@ -39,10 +41,10 @@ fn ten_thousand_random_meshes_never_panic_or_give_nan() {
     let sphere = icosphere(Vec3::zeros(), 1.0, 1).unwrap();
     let open_tube = tube(0.5, 1.5, 8, 4, Caps::Open).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(2024);
-    let mut n_positive = 0;
+    let (mut n_positive, mut n_general_tangles) = (0, 0);
     for case in 0..10_000 {
         let base = if case % 2 == 0 { &sphere } else { &open_tube };
-        let positions = crumple(base, &mut rng);
+        let (positions, general) = crumple(base, &mut rng);
         let mesh = base.with_positions(positions).unwrap();
         let selection = match case % 3 {
             0 => HoleSelection::All,
@@ -86,7 +88,15 @@ fn ten_thousand_random_meshes_never_panic_or_give_nan() {
         if p.volume > 0.0 {
             n_positive += 1;
         }
+        // In general position every tangle of a closed surface is resolved: no face is too
+        // complex to cut, every probe agrees, and nothing is skipped.
+        if general && options.rule == VolumeRule::Winding && selection == HoleSelection::All {
+            let d = &p.diagnostics;
+            assert_eq!(d.patches_skipped + d.complex_faces + d.unresolved_groups, 0, "case {case}: {d:?}");
+            n_general_tangles += usize::from(d.triple_points > 0);
+        }
     }
+    assert!(n_general_tangles > 100, "only {n_general_tangles} tangles in general position");
     // The generator must really produce penetrations, or the test proves little.
     assert!(n_positive > 1000, "only {n_positive} cases had a penetration");
 }

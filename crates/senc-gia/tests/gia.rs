@@ -276,10 +276,11 @@ fn assert_rigid_invariant(name: &str, mesh: &TriMesh, gradient: &[Vec3]) {
 }
 
 /// The tangle fixtures: a tube through a box (an annulus between two contours), three
-/// nested boxes (winding 3), a tube folded through its elbow.
+/// nested boxes (winding 3), a tube folded through its elbow, a crumpled sphere and tube
+/// (triple points).
 #[test]
 fn gradients_of_the_tangle_fixtures_match_finite_differences() {
-    for name in ["tube_through_box", "nested_boxes", "elbow_fold"] {
+    for name in ["tube_through_box", "nested_boxes", "elbow_fold", "crumpled_sphere", "crumpled_tube"] {
         fixture_gradient_check(name);
     }
 }

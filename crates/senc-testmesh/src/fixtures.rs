@@ -110,6 +110,17 @@ pub(super) fn open_box_pierced() -> Result<TriMesh, ShapeError> {
     let through_corner = grid_box(v(0.72, 0.31, 0.8), v(1.2, 0.63, 1.3), 12)?;
     merge(&merge(&open, &through_top)?, &through_corner)
 }
+/// An icosphere (one subdivision) whose vertices each moved by up to 0.2 of its diagonal
+/// (`jitter`, seed 36): folded through itself, with triple points where one face holds a
+/// closed network of crossing chords that touches no edge of the face.
+pub(super) fn crumpled_sphere() -> Result<TriMesh, ShapeError> {
+    jitter(&icosphere(v(0.0, 0.0, 0.0), 1.0, 1)?, 0.2, 36)
+}
+/// A fan-capped octagonal tube crumpled like [`crumpled_sphere`] (0.25 of its diagonal,
+/// seed 26): 168 crossing face pairs and 84 triple points.
+pub(super) fn crumpled_tube() -> Result<TriMesh, ShapeError> {
+    jitter(&tube(0.5, 1.5, 8, 4, Caps::Fan)?, 0.25, 26)
+}
 
 /// Every named fixture and benchmark mesh. Grid-made ones (`*_grid`) have exact
 /// degeneracies; each `*_jitter` twin is the same mesh after
@@ -246,6 +257,18 @@ pub const FIXTURES: &[Fixture] = &[
         description: "grid_box((0,0,0),(1,1,1),1) with its top open, pierced through the opening by grid_box((0.23,0.27,0.7),(0.61,0.66,1.4),12) and through opening and wall x=1 by grid_box((0.72,0.31,0.8),(1.2,0.63,1.3),12); volume with the opening fanned 0.38*0.39*0.3 + 0.28*0.32*0.2 m^3",
         close_holes: true,
         make: open_box_pierced,
+    },
+    Fixture {
+        name: "crumpled_sphere",
+        description: "icosphere((0,0,0), 1, 1 subdivision), every vertex moved by jitter(rel 0.2, seed 36): folded through itself, 3 triple points",
+        close_holes: false,
+        make: crumpled_sphere,
+    },
+    Fixture {
+        name: "crumpled_tube",
+        description: "tube(0.5, 1.5, 8, 4, fan caps), every vertex moved by jitter(rel 0.25, seed 26): 168 crossing face pairs, 84 triple points",
+        close_holes: false,
+        make: crumpled_tube,
     },
 ];
 

@@ -201,7 +201,10 @@ fn every_fixture_builds_and_names_are_unique() {
     assert_eq!(names.len(), FIXTURES.len());
     for f in FIXTURES {
         let m = f.build().unwrap();
-        assert!(m.n_faces() > 1000, "{}", f.name);
+        // The crumpled meshes are small on purpose (every face in the tangle); the others
+        // have over a thousand faces.
+        let least = if f.name.starts_with("crumpled") { 80 } else { 1000 };
+        assert!(m.n_faces() >= least, "{}", f.name);
     }
 }
 

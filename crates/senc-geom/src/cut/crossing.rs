@@ -75,6 +75,33 @@ pub(super) fn find_crossings(
     }
 }
 
+/// The connected part of the graph of half-edges `half` that each node belongs to (a
+/// representative node per part).
+fn connected_parts(half: &[(u32, u32, EdgeTag)]) -> FxHashMap<u32, u32> {
+    let mut parent: FxHashMap<u32, u32> = FxHashMap::default();
+    fn root(parent: &mut FxHashMap<u32, u32>, mut n: u32) -> u32 {
+        while let Some(&p) = parent.get(&n) {
+            if p == n {
+                break;
+            }
+            let gp = parent[&p];
+            parent.insert(n, gp);
+            n = p;
+        }
+        n
+    }
+    for &(u, v, _) in half {
+        parent.entry(u).or_insert(u);
+        parent.entry(v).or_insert(v);
+        let (ru, rv) = (root(&mut parent, u), root(&mut parent, v));
+        if ru != rv {
+            parent.insert(ru, rv);
+        }
+    }
+    let nodes: Vec<u32> = parent.keys().copied().collect();
+    nodes.into_iter().map(|n| (n, root(&mut parent, n))).collect()
+}
+
 impl Split {
     /// Splits a face whose chords cross (see the module docs). Returns false, adding
     /// nothing, when the planar graph cannot be traced (the caller keeps the face whole).
@@ -188,23 +215,23 @@ impl Split {
             self.pieces.push(Piece { face, cycles: vec![cycle] });
         }
         // A clockwise cycle is the outside of a part not joined to the perimeter (a loop and
-        // whatever crosses it): a hole of the smallest piece around it.
+        // whatever crosses it): a hole of the smallest piece around it. The pieces inside
+        // that part are bounded by its own nodes, and a vertex of the hole, the point tested,
+        // lies on their outlines, where a point-in-polygon test can say anything: so only
+        // pieces whose outline shares no node with the hole's part are hosts. The host's outer
+        // cycle never does (a part joined to it would be traced into that cycle).
+        let part = connected_parts(&half);
         for hole in holes {
-            let probe = pos(hole[0].0);
             let ring: Vec<[f64; 2]> = hole.iter().map(|c| pos(c.0)).collect();
             if ring.len() < 3 {
                 continue;
             }
+            let probe = ring[0];
+            let hole_part = part[&hole[0].0];
             let outline = |p: usize| -> Vec<[f64; 2]> { self.pieces[p].cycles[0].iter().map(|c| pos(c.0)).collect() };
-            let mut hole_nodes: Vec<u32> = hole.iter().map(|c| c.0).collect();
-            hole_nodes.sort_unstable();
-            let same_nodes = |p: usize| {
-                let mut n: Vec<u32> = self.pieces[p].cycles[0].iter().map(|c| c.0).collect();
-                n.sort_unstable();
-                n == hole_nodes
-            };
+            let apart = |p: usize| self.pieces[p].cycles[0].iter().all(|c| part[&c.0] != hole_part);
             let host = (first_piece..self.pieces.len())
-                .filter(|&p| !same_nodes(p) && point_in_polygon(probe, &outline(p)))
+                .filter(|&p| apart(p) && point_in_polygon(probe, &outline(p)))
                 .min_by(|&a, &b| signed_area(&outline(a)).total_cmp(&signed_area(&outline(b))));
             if let Some(p) = host {
                 self.pieces[p].cycles.push(hole);
