@@ -63,7 +63,7 @@ pub fn write_csv<T: Serialize>(path: &Path, records: &[T]) -> Result<(), TrainEr
 }
 
 /// Table 1 as Markdown (the columns of the paper's Table 1, then body penetration, the
-/// distance from the skinned garment, the rise and the speed).
+/// distance from the skinned garment, the rise, the area growth and the speed).
 pub fn table1_markdown(rows: &[Row]) -> String {
     let rise = format!("rise after {RISE_FRAME} frames (cm)");
     let mut t = MarkdownTable::new(
@@ -79,6 +79,7 @@ pub fn table1_markdown(rows: &[Row]) -> String {
             "body pen. (%)",
             "from skinned (cm)",
             rise.as_str(),
+            "area growth (%)",
             "FPS",
         ],
         3,
@@ -96,6 +97,7 @@ pub fn table1_markdown(rows: &[Row]) -> String {
             format!("{:.2}", r.body_penetration_pct),
             format!("{:.1}", r.departure_cm),
             r.rise_30_cm.map_or("–".into(), |v| format!("{v:.1}")),
+            format!("{:.1}", r.stretch_pct),
             format!("{:.1}", r.fps),
         ]);
     }

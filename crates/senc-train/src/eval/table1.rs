@@ -6,8 +6,8 @@
 //! garment after closing the scene's holes, measured exactly by winding numbers whatever
 //! rule the run trains with (senc-gia's [`VolumeRule::Winding`]; a hole the scene leaves
 //! open is fanned virtually and counted as closed), `L_self-col = 100 · |6V|`, the share
-//! of cloth vertices inside the full body, and the distance from the linearly skinned
-//! garment. Speed is graph building plus network (plus the refinement), or the solver.
+//! of cloth vertices inside the full body, the distance from the linearly skinned
+//! garment, and the growth of the garment's area over its rest area. Speed is graph building plus network (plus the refinement), or the solver.
 
 use senc_energy::EnergyConfig;
 use senc_geom::{close_holes, Closure, Vec3};
@@ -20,7 +20,7 @@ use super::runtime::{error_vs_runtime, CurvePoint};
 use crate::config::RunConfig;
 use crate::error::TrainError;
 use crate::garment::Garment;
-use crate::metrics::{mean, mean_distance, mean_rise};
+use crate::metrics::{area_growth, mean, mean_distance, mean_rise};
 use crate::rollout::{network_rollout, solver_rollout, Refine, Rollout};
 use crate::trainer::scene_material;
 
@@ -57,6 +57,10 @@ pub struct Row {
     /// [`RISE_FRAME`], cm (positive: above it). A garment hanging on the body sags a little
     /// (negative); one blown off it rises. `None` when the rollout is shorter.
     pub rise_30_cm: Option<f64>,
+    /// Mean growth of the garment's surface area over its rest area, %, over the test
+    /// frames ([`area_growth`]): cloth folds rather than stretches, so a garment inflated
+    /// like a balloon shows here when its distance from the skinned garment does not.
+    pub stretch_pct: f64,
     /// Frames per second (graph + network, and the refinement for a refined method; the
     /// solver for the reference solver).
     pub fps: f64,
@@ -97,7 +101,8 @@ fn rows(label: &str, g: &Garment, rollouts: &[Rollout], meter: &mut VolumeMeter)
 
 /// The Table-1 row of the rollout `r` of `motion`.
 fn row(label: &str, g: &Garment, motion: &Motion, r: &Rollout, meter: &mut VolumeMeter) -> Result<Row, TrainError> {
-    let (mut vols, mut body_pct, mut departure, mut rise) = (Vec::new(), Vec::new(), Vec::new(), None);
+    let (mut vols, mut body_pct, mut departure, mut stretch, mut rise) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), None);
     for (f, x) in r.cloth.iter().enumerate().skip(1) {
         vols.push(meter.volume(x)?);
         let body = g.scene.body_at(motion, f)?;
@@ -105,6 +110,7 @@ fn row(label: &str, g: &Garment, motion: &Motion, r: &Rollout, meter: &mut Volum
         body_pct.push(100.0 * q.inside(x).len() as f64 / x.len() as f64);
         let skinned = g.skinned_at(motion, f)?;
         departure.push(mean_distance(x, &skinned));
+        stretch.push(area_growth(&g.rest, x));
         if f == RISE_FRAME {
             rise = Some(mean_rise(x, &skinned) * 100.0);
         }
@@ -124,6 +130,7 @@ fn row(label: &str, g: &Garment, motion: &Motion, r: &Rollout, meter: &mut Volum
         body_penetration_pct: mean(&body_pct),
         departure_cm: mean(&departure) * 100.0,
         rise_30_cm: rise,
+        stretch_pct: mean(&stretch) * 100.0,
         fps: if r.infer_seconds > 0.0 { r.steps as f64 / r.infer_seconds } else { f64::NAN },
         rejected_pct: 100.0 * rejected as f64 / r.steps.max(1) as f64,
     })
