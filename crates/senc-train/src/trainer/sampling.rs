@@ -91,6 +91,23 @@ pub(super) fn finite(v: &[Vec3]) -> bool {
     v.iter().all(|p| p.iter().all(|c| c.is_finite()))
 }
 
+/// A pool rollout stops once the garment's mean distance from the skinned garment passes
+/// this, m: it has left the body, and training on such states (energies of 1e10 J and
+/// more) swamps the loss instead of teaching the network to come back.
+const POOL_MAX_DEPARTURE: f64 = 0.25;
+
+/// A pool rollout also stops once the garment's area differs from its rest area by more
+/// than this share: cloth that has stretched or shrunk that far is torn, not worn.
+const POOL_MAX_AREA_CHANGE: f64 = 0.5;
+
+/// Whether `x`, frame `frame` of a rollout of `motion`, has strayed too far to enter the
+/// visited-state pool ([`POOL_MAX_DEPARTURE`], [`POOL_MAX_AREA_CHANGE`]).
+pub(super) fn strayed(g: &Garment, motion: &senc_scene::Motion, frame: usize, x: &[Vec3]) -> Result<bool, TrainError> {
+    let departure = crate::metrics::mean_distance(x, &g.skinned_at(motion, frame)?);
+    let area = crate::metrics::area_growth(&g.rest, x);
+    Ok(!(departure <= POOL_MAX_DEPARTURE && area.abs() <= POOL_MAX_AREA_CHANGE))
+}
+
 /// What a sequence start draws from the RNG, drawn in one go ([`Trainer::draw_start`]).
 /// Building the start from it ([`build_start`]: skinning, relaxing out of the body, adding
 /// the drawn noise) uses no randomness, so the trainer can build the next sequence's start
@@ -271,8 +288,8 @@ impl Trainer {
     /// Rolls the current network out alone for `[train] pool_frames` frames from a fresh
     /// skinned start (a random garment, motion, material and force, as a training sequence
     /// draws them) and puts every `pool_stride`-th state it reaches into the pool, replacing
-    /// the oldest once the pool holds `pool_size`. A rollout that turns non-finite stops
-    /// there. Inference only (no optimiser step, no energy).
+    /// the oldest once the pool holds `pool_size`. A rollout that turns non-finite or strays
+    /// off the body ([`strayed`]) stops there. Inference only (no optimiser step, no energy).
     pub(super) fn fill_pool(&mut self) -> Result<(), TrainError> {
         let t = self.config.train.clone();
         let mut s = self.start_sequence(t.pool_frames, false)?;
@@ -286,7 +303,7 @@ impl Trainer {
             let dt = if s.first_step { g.scene.config.first_step_dt } else { g.scene.dt() };
             let mut next = stepper.step(&frame_state(&g, &s, &body_t, &body_n, accel, dt))?;
             g.pin_at(&mut next, motion, s.frame + 1)?;
-            if !finite(&next) {
+            if !finite(&next) || strayed(&g, motion, s.frame + 1, &next)? {
                 break;
             }
             advance(&mut s, next, &g);
@@ -303,5 +320,32 @@ impl Trainer {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_garment_off_the_body_or_torn_is_kept_out_of_the_pool() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let cfg = crate::RunConfig::read(root.join("configs/smoke.toml")).unwrap();
+        let g = Garment::load(&crate::eval::first_scene(&cfg).unwrap(), cfg.train.body_margin).unwrap();
+        let motion = &g.scene.train[0];
+        let skinned = g.skinned_at(motion, 3).unwrap();
+        assert!(!strayed(&g, motion, 3, &skinned).unwrap());
+        let lifted: Vec<Vec3> = skinned.iter().map(|p| p + Vec3::new(0.0, 0.3, 0.0)).collect();
+        assert!(strayed(&g, motion, 3, &lifted).unwrap());
+        let near: Vec<Vec3> = skinned.iter().map(|p| p + Vec3::new(0.0, 0.2, 0.0)).collect();
+        assert!(!strayed(&g, motion, 3, &near).unwrap(), "a garment lifted 20 cm is still near the body");
+        // Blown up 1.3 times about its centroid: 69 % more area, though its mean distance
+        // from the skinned garment is small.
+        let c = skinned.iter().sum::<Vec3>() / skinned.len() as f64;
+        let blown: Vec<Vec3> = skinned.iter().map(|p| c + (p - c) * 1.3).collect();
+        assert!(crate::metrics::mean_distance(&blown, &skinned) < POOL_MAX_DEPARTURE);
+        assert!(strayed(&g, motion, 3, &blown).unwrap());
+        let nan = vec![Vec3::new(f64::NAN, 0.0, 0.0); skinned.len()];
+        assert!(strayed(&g, motion, 3, &nan).unwrap(), "NaN never enters the pool");
     }
 }
