@@ -155,7 +155,7 @@ fn print_row(row: &Row) {
         row.pct_above_0_01,
         row.body_penetration_pct,
         row.departure_cm,
-        row.stretch_pct,
+        row.area_growth_pct,
         row.fps
     );
 }

@@ -121,7 +121,20 @@ impl TriMesh {
 
     /// Total area.
     pub fn area(&self) -> f64 {
-        (0..self.n_faces()).map(|f| 0.5 * self.face_normal_scaled(f).norm()).sum()
+        self.area_at(&self.positions)
+    }
+
+    /// Total area of the faces with their vertices placed at `positions` (one per vertex,
+    /// e.g. a simulated state of the mesh).
+    pub fn area_at(&self, positions: &[Vec3]) -> f64 {
+        debug_assert_eq!(positions.len(), self.positions.len());
+        self.faces
+            .iter()
+            .map(|f| {
+                let [a, b, c] = f.map(|i| positions[i as usize]);
+                0.5 * (b - a).cross(&(c - a)).norm()
+            })
+            .sum()
     }
 
     /// Signed volume `Σ p0 · (p1 × p2) / 6` (the enclosed volume for a closed, outward

@@ -18,18 +18,9 @@ pub fn mean_rise(a: &[Vec3], b: &[Vec3]) -> f64 {
 /// garment hanging or moving on a body stays within a few per cent; a garment inflated like a
 /// balloon (a flared hem stretched wider than its rest length) grows by more.
 pub fn area_growth(rest: &TriMesh, x: &[Vec3]) -> f64 {
-    let area = |p: &[Vec3]| -> f64 {
-        rest.faces()
-            .iter()
-            .map(|f| {
-                let [a, b, c] = f.map(|i| p[i as usize]);
-                0.5 * (b - a).cross(&(c - a)).norm()
-            })
-            .sum()
-    };
-    let a0 = area(rest.positions());
+    let a0 = rest.area();
     if a0 > 0.0 {
-        area(x) / a0 - 1.0
+        rest.area_at(x) / a0 - 1.0
     } else {
         0.0
     }

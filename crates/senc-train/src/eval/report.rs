@@ -97,7 +97,7 @@ pub fn table1_markdown(rows: &[Row]) -> String {
             format!("{:.2}", r.body_penetration_pct),
             format!("{:.1}", r.departure_cm),
             r.rise_30_cm.map_or("–".into(), |v| format!("{v:.1}")),
-            format!("{:.1}", r.stretch_pct),
+            format!("{:.1}", r.area_growth_pct),
             format!("{:.1}", r.fps),
         ]);
     }

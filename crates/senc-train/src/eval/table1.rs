@@ -7,7 +7,8 @@
 //! rule the run trains with (senc-gia's [`VolumeRule::Winding`]; a hole the scene leaves
 //! open is fanned virtually and counted as closed), `L_self-col = 100 · |6V|`, the share
 //! of cloth vertices inside the full body, the distance from the linearly skinned
-//! garment, and the growth of the garment's area over its rest area. Speed is graph building plus network (plus the refinement), or the solver.
+//! garment, and the growth of the garment's area over its rest area. Speed is graph
+//! building plus network (plus the refinement), or the solver.
 
 use senc_energy::EnergyConfig;
 use senc_geom::{close_holes, Closure, Vec3};
@@ -60,7 +61,7 @@ pub struct Row {
     /// Mean growth of the garment's surface area over its rest area, %, over the test
     /// frames ([`area_growth`]): cloth folds rather than stretches, so a garment inflated
     /// like a balloon shows here when its distance from the skinned garment does not.
-    pub stretch_pct: f64,
+    pub area_growth_pct: f64,
     /// Frames per second (graph + network, and the refinement for a refined method; the
     /// solver for the reference solver).
     pub fps: f64,
@@ -130,7 +131,7 @@ fn row(label: &str, g: &Garment, motion: &Motion, r: &Rollout, meter: &mut Volum
         body_penetration_pct: mean(&body_pct),
         departure_cm: mean(&departure) * 100.0,
         rise_30_cm: rise,
-        stretch_pct: mean(&stretch) * 100.0,
+        area_growth_pct: mean(&stretch) * 100.0,
         fps: if r.infer_seconds > 0.0 { r.steps as f64 / r.infer_seconds } else { f64::NAN },
         rejected_pct: 100.0 * rejected as f64 / r.steps.max(1) as f64,
     })

@@ -1,0 +1,108 @@
+"""Shape of simulated garment frames against another frame: what a distance does not show.
+
+    python3 tools/cloth_shape.py DIR FRAME [FRAME ...] [--against OTHER_DIR/cloth_NNNN.obj]
+
+DIR holds `cargo xtask simulate` output (`cloth_NNNN.obj`, `body_NNNN.obj`). For each
+frame it prints, against DIR's frame 0 (the skinned start) or against `--against`:
+- the growth of the total area, and the median face-area and edge-length ratios;
+- the length of each boundary loop (sorted by height), and for the lowest loop (a hem) its
+  mean radius about its own centroid's vertical axis and the spread of that radius left
+  after the first three Fourier modes around the loop (folds);
+- the share of cloth vertices within 1 cm of a body vertex.
+Needs numpy only.
+"""
+import argparse
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+
+def load(path):
+    v, f = [], []
+    for line in open(path):
+        if line.startswith("v "):
+            v.append([float(x) for x in line.split()[1:4]])
+        elif line.startswith("f "):
+            f.append([int(x.split("/")[0]) - 1 for x in line.split()[1:4]])
+    return np.array(v), np.array(f)
+
+
+def face_areas(v, f):
+    return 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+
+
+def boundary_loops(f):
+    count = Counter()
+    for tri in f:
+        for i in range(3):
+            a, b = tri[i], tri[(i + 1) % 3]
+            count[(min(a, b), max(a, b))] += 1
+    edges = [e for e, c in count.items() if c == 1]
+    adj = {}
+    for a, b in edges:
+        adj.setdefault(a, []).append(b)
+        adj.setdefault(b, []).append(a)
+    seen, loops = set(), []
+    for start in adj:
+        if start in seen:
+            continue
+        comp, stack = set(), [start]
+        while stack:
+            x = stack.pop()
+            if x not in comp:
+                comp.add(x)
+                stack += adj[x]
+        seen |= comp
+        loops.append([e for e in edges if e[0] in comp])
+    return loops
+
+
+def hem_radius(v, loop):
+    ids = sorted({i for e in loop for i in e})
+    p = v[ids]
+    r = p - p.mean(0)
+    r[:, 1] = 0.0
+    rad = np.linalg.norm(r, axis=1)
+    th = np.arctan2(r[:, 2], r[:, 0])
+    basis = np.stack([np.ones_like(th)] + [g(k * th) for k in (1, 2, 3) for g in (np.cos, np.sin)], 1)
+    residual = rad - basis @ np.linalg.lstsq(basis, rad, rcond=None)[0]
+    return rad.mean(), residual.std()
+
+
+def near_body(cloth, body, within=0.01):
+    hits = 0
+    for chunk in np.array_split(cloth, max(1, len(cloth) // 512)):
+        d2 = ((chunk[:, None, :] - body[None, :, :]) ** 2).sum(-1).min(1)
+        hits += int((d2 < within * within).sum())
+    return hits / len(cloth)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("dir", type=Path)
+    ap.add_argument("frames", type=int, nargs="+")
+    ap.add_argument("--against", type=Path, help="reference cloth OBJ (default DIR/cloth_0000.obj)")
+    a = ap.parse_args()
+    v0, f = load(a.against or a.dir / "cloth_0000.obj")
+    loops = sorted(boundary_loops(f), key=lambda l: v0[[e[0] for e in l], 1].mean())
+    edges = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), 1), axis=0)
+    a0, l0 = face_areas(v0, f), np.linalg.norm(v0[edges[:, 0]] - v0[edges[:, 1]], axis=1)
+    for frame in a.frames:
+        v, f2 = load(a.dir / f"cloth_{frame:04d}.obj")
+        assert (f2 == f).all(), "frames of different meshes"
+        ar, lr = face_areas(v, f) / a0, np.linalg.norm(v[edges[:, 0]] - v[edges[:, 1]], axis=1) / l0
+        lengths = " ".join(f"{100 * sum(np.linalg.norm(v[i] - v[j]) for i, j in l):.1f}" for l in loops)
+        radius, spread = hem_radius(v, loops[0]) if loops else (float("nan"), float("nan"))
+        body, _ = load(a.dir / f"body_{frame:04d}.obj")
+        print(
+            f"frame {frame}: area {100 * (face_areas(v, f).sum() / a0.sum() - 1):+.1f} %, "
+            f"median face x{np.median(ar):.3f}, median edge x{np.median(lr):.3f}; "
+            f"loop lengths (cm, lowest first) {lengths}; lowest loop radius {100 * radius:.1f} cm, "
+            f"spread beyond 3 modes {100 * spread:.2f} cm; within 1 cm of the body "
+            f"{100 * near_body(v, body):.1f} %"
+        )
+
+
+if __name__ == "__main__":
+    main()
