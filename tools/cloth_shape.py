@@ -5,6 +5,9 @@
 DIR holds `cargo xtask simulate` output (`cloth_NNNN.obj`, `body_NNNN.obj`). For each
 frame it prints, against DIR's frame 0 (the skinned start) or against `--against`:
 - the growth of the total area, and the median face-area and edge-length ratios;
+- the median stretch of the faces along the hoop (around the vertical axis through the
+  reference's centroid) and along the meridian (the face's other in-plane direction): a
+  hanging skirt or sleeve shortens its hoop and lengthens its meridian;
 - the length of each boundary loop (sorted by height), and for the lowest loop (a hem) its
   mean radius about its own centroid's vertical axis and the spread of that radius left
   after the first three Fourier modes around the loop (folds);
@@ -70,6 +73,27 @@ def hem_radius(v, loop):
     return rad.mean(), residual.std()
 
 
+def hoop_meridian(v0, v, f):
+    """Median stretch of the faces along the hoop and the meridian of the reference `v0`."""
+    e1, e2 = v0[f[:, 1]] - v0[f[:, 0]], v0[f[:, 2]] - v0[f[:, 0]]
+    n = np.cross(e1, e2)
+    keep = np.linalg.norm(n, axis=1) > 1e-12
+    n = n[keep] / np.linalg.norm(n[keep], axis=1)[:, None]
+    e1, e2, fk = e1[keep], e2[keep], f[keep]
+    centre = v0[fk].mean(1) - v0.mean(0)
+    hoop = np.cross([0.0, 1.0, 0.0], centre)
+    hoop -= n * (hoop * n).sum(1)[:, None]
+    ok = np.linalg.norm(hoop, axis=1) > 1e-9
+    hoop = hoop[ok] / np.linalg.norm(hoop[ok], axis=1)[:, None]
+    n, e1, e2, fk = n[ok], e1[ok], e2[ok], fk[ok]
+    meridian = np.cross(n, hoop)
+    rest = np.stack([np.stack([(e1 * hoop).sum(1), (e2 * hoop).sum(1)], 1),
+                     np.stack([(e1 * meridian).sum(1), (e2 * meridian).sum(1)], 1)], 1)
+    now = np.stack([v[fk[:, 1]] - v[fk[:, 0]], v[fk[:, 2]] - v[fk[:, 0]]], 2)
+    grad = now @ np.linalg.inv(rest)
+    return np.median(np.linalg.norm(grad[:, :, 0], axis=1)), np.median(np.linalg.norm(grad[:, :, 1], axis=1))
+
+
 def near_body(cloth, body, within=0.01):
     hits = 0
     for chunk in np.array_split(cloth, max(1, len(cloth) // 512)):
@@ -95,9 +119,11 @@ def main():
         lengths = " ".join(f"{100 * sum(np.linalg.norm(v[i] - v[j]) for i, j in l):.1f}" for l in loops)
         radius, spread = hem_radius(v, loops[0]) if loops else (float("nan"), float("nan"))
         body, _ = load(a.dir / f"body_{frame:04d}.obj")
+        hoop, meridian = hoop_meridian(v0, v, f)
         print(
             f"frame {frame}: area {100 * (face_areas(v, f).sum() / a0.sum() - 1):+.1f} %, "
-            f"median face x{np.median(ar):.3f}, median edge x{np.median(lr):.3f}; "
+            f"median face x{np.median(ar):.3f}, median edge x{np.median(lr):.3f}, "
+            f"hoop x{hoop:.3f}, meridian x{meridian:.3f}; "
             f"loop lengths (cm, lowest first) {lengths}; lowest loop radius {100 * radius:.1f} cm, "
             f"spread beyond 3 modes {100 * spread:.2f} cm; within 1 cm of the body "
             f"{100 * near_body(v, body):.1f} %"
