@@ -5,6 +5,8 @@
 DIR holds `cargo xtask simulate` output (`cloth_NNNN.obj`, `body_NNNN.obj`). For each
 frame it prints, against DIR's frame 0 (the skinned start) or against `--against`:
 - the growth of the total area, and the median face-area and edge-length ratios;
+- the faces' principal stretches (the larger and the smaller, medians) and the share of
+  faces with either of them more than 10 % off 1;
 - the median stretch of the faces along the hoop (around the vertical axis through the
   reference's centroid) and along the meridian (the face's other in-plane direction): a
   hanging skirt or sleeve shortens its hoop and lengthens its meridian;
@@ -94,6 +96,19 @@ def hoop_meridian(v0, v, f):
     return np.median(np.linalg.norm(grad[:, :, 0], axis=1)), np.median(np.linalg.norm(grad[:, :, 1], axis=1))
 
 
+def principal_stretches(v0, v, f):
+    """Per face, the larger and the smaller principal stretch from `v0` to `v`."""
+    e1, e2 = v0[f[:, 1]] - v0[f[:, 0]], v0[f[:, 2]] - v0[f[:, 0]]
+    l1 = np.linalg.norm(e1, axis=1)
+    cross = np.linalg.norm(np.cross(e1, e2), axis=1)
+    u, w = (e1 * e2).sum(1) / l1, cross / l1
+    g1 = (v[f[:, 1]] - v[f[:, 0]]) / l1[:, None]
+    g2 = (v[f[:, 2]] - v[f[:, 0]] - g1 * u[:, None]) / w[:, None]
+    c11, c12, c22 = (g1 * g1).sum(1), (g1 * g2).sum(1), (g2 * g2).sum(1)
+    m, d = 0.5 * (c11 + c22), np.sqrt(0.25 * (c11 - c22) ** 2 + c12**2)
+    return np.sqrt(np.maximum(m + d, 0.0)), np.sqrt(np.maximum(m - d, 0.0))
+
+
 def near_body(cloth, body, within=0.01):
     hits = 0
     for chunk in np.array_split(cloth, max(1, len(cloth) // 512)):
@@ -120,10 +135,13 @@ def main():
         radius, spread = hem_radius(v, loops[0]) if loops else (float("nan"), float("nan"))
         body, _ = load(a.dir / f"body_{frame:04d}.obj")
         hoop, meridian = hoop_meridian(v0, v, f)
+        s1, s2 = principal_stretches(v0, v, f)
+        off = 100 * ((s1 > 1.1) | (s2 < 0.9)).mean()
         print(
             f"frame {frame}: area {100 * (face_areas(v, f).sum() / a0.sum() - 1):+.1f} %, "
             f"median face x{np.median(ar):.3f}, median edge x{np.median(lr):.3f}, "
-            f"hoop x{hoop:.3f}, meridian x{meridian:.3f}; "
+            f"hoop x{hoop:.3f}, meridian x{meridian:.3f}; principal stretches (medians) "
+            f"x{np.median(s1):.3f} and x{np.median(s2):.3f}, {off:.0f} % of faces off by more than 10 %; "
             f"loop lengths (cm, lowest first) {lengths}; lowest loop radius {100 * radius:.1f} cm, "
             f"spread beyond 3 modes {100 * spread:.2f} cm; within 1 cm of the body "
             f"{100 * near_body(v, body):.1f} %"

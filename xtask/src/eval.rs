@@ -145,7 +145,7 @@ fn print_row(row: &Row) {
     let rise = row.rise_30_cm.map_or("–".to_string(), |r| format!("{r:.1} cm"));
     println!(
         "{} {} {}: V {:.3} cm³, L_self-col {:.3e}, >0.1 {:.1}%, >0.01 {:.1}%, body {:.2}%, from skinned {:.1} cm, \
-         rise after {RISE_FRAME} frames {rise}, area growth {:.1}%, {:.1} FPS",
+         rise after {RISE_FRAME} frames {rise}, area growth {:.1}%, strain {:.1}%, {:.1} FPS",
         row.method,
         row.garment,
         row.motion,
@@ -156,6 +156,7 @@ fn print_row(row: &Row) {
         row.body_penetration_pct,
         row.departure_cm,
         row.area_growth_pct,
+        row.strain_pct,
         row.fps
     );
 }

@@ -123,6 +123,8 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     // Cloth stretches by little: the solver's garment keeps its rest area to a few per cent.
     assert!(solver.area_growth_pct.abs() < 5.0, "{}", solver.area_growth_pct);
     assert!(row.area_growth_pct.is_finite());
+    assert!(solver.strain_pct >= 0.0 && solver.strain_pct < 10.0, "{}", solver.strain_pct);
+    assert!(row.strain_pct.is_finite() && row.strain_pct >= 0.0);
     let out = d.join("reports");
     write_reports(&out, &[row.clone(), solver], &curve, "test").unwrap();
     for f in ["table1.md", "table1.csv", "table1.json", "runtime.md", "runtime.csv", "runtime.svg"] {
@@ -130,7 +132,7 @@ fn kill_and_resume_gives_the_same_weights_and_eval_runs() {
     }
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("table1.json")).unwrap()).unwrap();
-    for field in ["method", "volume_cm3", "departure_cm", "rise_30_cm", "area_growth_pct", "fps"] {
+    for field in ["method", "volume_cm3", "departure_cm", "rise_30_cm", "area_growth_pct", "strain_pct", "fps"] {
         assert!(json[1].get(field).is_some(), "table1.json lacks {field}");
     }
     let csv = std::fs::read_to_string(out.join("table1.csv")).unwrap();

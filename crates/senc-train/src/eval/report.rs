@@ -63,7 +63,7 @@ pub fn write_csv<T: Serialize>(path: &Path, records: &[T]) -> Result<(), TrainEr
 }
 
 /// Table 1 as Markdown (the columns of the paper's Table 1, then body penetration, the
-/// distance from the skinned garment, the rise, the area growth and the speed).
+/// distance from the skinned garment, the rise, the area growth, the strain and the speed).
 pub fn table1_markdown(rows: &[Row]) -> String {
     let rise = format!("rise after {RISE_FRAME} frames (cm)");
     let mut t = MarkdownTable::new(
@@ -80,6 +80,7 @@ pub fn table1_markdown(rows: &[Row]) -> String {
             "from skinned (cm)",
             rise.as_str(),
             "area growth (%)",
+            "strain (%)",
             "FPS",
         ],
         3,
@@ -98,6 +99,7 @@ pub fn table1_markdown(rows: &[Row]) -> String {
             format!("{:.1}", r.departure_cm),
             r.rise_30_cm.map_or("–".into(), |v| format!("{v:.1}")),
             format!("{:.1}", r.area_growth_pct),
+            format!("{:.1}", r.strain_pct),
             format!("{:.1}", r.fps),
         ]);
     }
