@@ -83,38 +83,39 @@ mod tests {
         assert_eq!(mean_distance(&[], &[]), 0.0);
     }
 
-    #[test]
-    fn area_growth_of_a_scaled_mesh_is_the_square_of_the_scale_minus_one() {
-        let rest = TriMesh::new(
-            vec![Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.3)],
-            vec![[0, 1, 2], [1, 3, 2]],
-        )
-        .unwrap();
-        let scaled: Vec<Vec3> = rest.positions().iter().map(|p| p * 1.1 + Vec3::new(5.0, -2.0, 1.0)).collect();
-        assert!((area_growth(&rest, &scaled) - 0.21).abs() < 1e-12);
-        assert!(area_growth(&rest, rest.positions()).abs() < 1e-15);
-        // Folding a face over its neighbour (a half turn about their shared edge) keeps the
-        // area: no growth.
-        let (a, p) = (rest.positions()[1], rest.positions()[3]);
-        let u = (rest.positions()[2] - a).normalize();
-        let mut folded = rest.positions().to_vec();
-        folded[3] = a + 2.0 * (p - a).dot(&u) * u - (p - a);
-        assert!((folded[3] - p).norm() > 0.5);
-        assert!(area_growth(&rest, &folded).abs() < 1e-12);
-    }
-
-    /// Two faces of a unit square, bent along their shared diagonal.
-    fn square() -> TriMesh {
+    /// Two faces of a unit square, the fourth corner lifted by `lift` (bent along their
+    /// shared diagonal).
+    fn square(lift: f64) -> TriMesh {
         TriMesh::new(
-            vec![Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.3)],
+            vec![Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, lift)],
             vec![[0, 1, 2], [1, 3, 2]],
         )
         .unwrap()
     }
 
+    /// `square`'s second face folded over the first (a half turn about their shared edge).
+    fn folded(rest: &TriMesh) -> Vec<Vec3> {
+        let (a, p) = (rest.positions()[1], rest.positions()[3]);
+        let u = (rest.positions()[2] - a).normalize();
+        let mut x = rest.positions().to_vec();
+        x[3] = a + 2.0 * (p - a).dot(&u) * u - (p - a);
+        assert!((x[3] - p).norm() > 0.5);
+        x
+    }
+
+    #[test]
+    fn area_growth_of_a_scaled_mesh_is_the_square_of_the_scale_minus_one() {
+        let rest = square(0.3);
+        let scaled: Vec<Vec3> = rest.positions().iter().map(|p| p * 1.1 + Vec3::new(5.0, -2.0, 1.0)).collect();
+        assert!((area_growth(&rest, &scaled) - 0.21).abs() < 1e-12);
+        assert!(area_growth(&rest, rest.positions()).abs() < 1e-15);
+        // Folding keeps the area: no growth.
+        assert!(area_growth(&rest, &folded(&rest)).abs() < 1e-12);
+    }
+
     #[test]
     fn strain_is_zero_for_rigid_motions_and_folds_and_the_scale_for_a_uniform_scale() {
-        let rest = square();
+        let rest = square(0.3);
         // A rotation by 1.2 rad about a tilted axis (Rodrigues).
         let (k, t) = (Vec3::new(1.0, -2.0, 0.5).normalize(), 1.2f64);
         let r = |p: &Vec3| p * t.cos() + k.cross(p) * t.sin() + k * k.dot(p) * (1.0 - t.cos());
@@ -125,22 +126,14 @@ mod tests {
             assert!((mean_strain(&rest, &scaled) - (s - 1.0f64).abs()).abs() < 1e-12, "scale {s}");
         }
         // Folding one face over the other about their shared edge is an isometry.
-        let (a, p) = (rest.positions()[1], rest.positions()[3]);
-        let u = (rest.positions()[2] - a).normalize();
-        let mut folded = rest.positions().to_vec();
-        folded[3] = a + 2.0 * (p - a).dot(&u) * u - (p - a);
-        assert!(mean_strain(&rest, &folded) < 1e-12);
+        assert!(mean_strain(&rest, &folded(&rest)) < 1e-12);
     }
 
     #[test]
     fn strain_sees_a_stretch_that_a_compression_hides_from_the_area() {
         // A flat sheet stretched by 1.25 along x and compressed by 0.8 along y keeps its area;
         // its principal strains are +0.25 and -0.2: RMS √((0.0625 + 0.04) / 2).
-        let rest = TriMesh::new(
-            vec![Vec3::zeros(), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.0)],
-            vec![[0, 1, 2], [1, 3, 2]],
-        )
-        .unwrap();
+        let rest = square(0.0);
         let x: Vec<Vec3> = rest.positions().iter().map(|p| Vec3::new(1.25 * p.x, 0.8 * p.y, 0.0)).collect();
         assert!(area_growth(&rest, &x).abs() < 1e-12);
         assert!((mean_strain(&rest, &x) - (0.5f64 * (0.0625 + 0.04)).sqrt()).abs() < 1e-12);
