@@ -4,6 +4,7 @@
 
 DIR holds `cargo xtask simulate` output (`cloth_NNNN.obj`, `body_NNNN.obj`). For each
 frame it prints, against DIR's frame 0 (the skinned start) or against `--against`:
+(after a first line with the reference's mean edge length)
 - the growth of the total area, and the median face-area and edge-length ratios;
 - the faces' principal stretches (the larger and the smaller, medians) and the share of
   faces with either of them more than 10 % off 1;
@@ -75,38 +76,33 @@ def hem_radius(v, loop):
     return rad.mean(), residual.std()
 
 
-def hoop_meridian(v0, v, f):
-    """Median stretch of the faces along the hoop and the meridian of the reference `v0`."""
+def stretches(v0, v, f):
+    """Per face of nonzero reference area: the larger and the smaller principal stretch from
+    `v0` to `v`, and the stretch along the hoop (around the vertical axis through `v0`'s
+    centroid) and along the meridian (the face's other in-plane direction), all from one
+    deformation gradient `F` (3×2) in an orthonormal basis of the reference face's plane."""
     e1, e2 = v0[f[:, 1]] - v0[f[:, 0]], v0[f[:, 2]] - v0[f[:, 0]]
     n = np.cross(e1, e2)
     keep = np.linalg.norm(n, axis=1) > 1e-12
-    n = n[keep] / np.linalg.norm(n[keep], axis=1)[:, None]
-    e1, e2, fk = e1[keep], e2[keep], f[keep]
-    centre = v0[fk].mean(1) - v0.mean(0)
-    hoop = np.cross([0.0, 1.0, 0.0], centre)
-    hoop -= n * (hoop * n).sum(1)[:, None]
-    ok = np.linalg.norm(hoop, axis=1) > 1e-9
-    hoop = hoop[ok] / np.linalg.norm(hoop[ok], axis=1)[:, None]
-    n, e1, e2, fk = n[ok], e1[ok], e2[ok], fk[ok]
-    meridian = np.cross(n, hoop)
-    rest = np.stack([np.stack([(e1 * hoop).sum(1), (e2 * hoop).sum(1)], 1),
-                     np.stack([(e1 * meridian).sum(1), (e2 * meridian).sum(1)], 1)], 1)
-    now = np.stack([v[fk[:, 1]] - v[fk[:, 0]], v[fk[:, 2]] - v[fk[:, 0]]], 2)
+    n, e1, e2, f = n[keep], e1[keep], e2[keep], f[keep]
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    b1 = e1 / np.linalg.norm(e1, axis=1)[:, None]
+    b2 = np.cross(n, b1)
+    rest = np.stack([np.stack([(e1 * b1).sum(1), (e2 * b1).sum(1)], 1),
+                     np.stack([(e1 * b2).sum(1), (e2 * b2).sum(1)], 1)], 1)
+    now = np.stack([v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]], 2)
     grad = now @ np.linalg.inv(rest)
-    return np.median(np.linalg.norm(grad[:, :, 0], axis=1)), np.median(np.linalg.norm(grad[:, :, 1], axis=1))
-
-
-def principal_stretches(v0, v, f):
-    """Per face, the larger and the smaller principal stretch from `v0` to `v`."""
-    e1, e2 = v0[f[:, 1]] - v0[f[:, 0]], v0[f[:, 2]] - v0[f[:, 0]]
-    l1 = np.linalg.norm(e1, axis=1)
-    cross = np.linalg.norm(np.cross(e1, e2), axis=1)
-    u, w = (e1 * e2).sum(1) / l1, cross / l1
-    g1 = (v[f[:, 1]] - v[f[:, 0]]) / l1[:, None]
-    g2 = (v[f[:, 2]] - v[f[:, 0]] - g1 * u[:, None]) / w[:, None]
-    c11, c12, c22 = (g1 * g1).sum(1), (g1 * g2).sum(1), (g2 * g2).sum(1)
-    m, d = 0.5 * (c11 + c22), np.sqrt(0.25 * (c11 - c22) ** 2 + c12**2)
-    return np.sqrt(np.maximum(m + d, 0.0)), np.sqrt(np.maximum(m - d, 0.0))
+    s = np.linalg.svd(grad, compute_uv=False)
+    # The hoop direction in the face's plane, in the (b1, b2) basis; the meridian is its
+    # in-plane normal. Faces whose plane holds no hoop direction (normal vertical) are left
+    # out of those two.
+    hoop = np.cross([0.0, 1.0, 0.0], v0[f].mean(1) - v0.mean(0))
+    h = np.stack([(hoop * b1).sum(1), (hoop * b2).sum(1)], 1)
+    ok = np.linalg.norm(h, axis=1) > 1e-9
+    h = h[ok] / np.linalg.norm(h[ok], axis=1)[:, None]
+    m = np.stack([-h[:, 1], h[:, 0]], 1)
+    along = lambda d: np.linalg.norm(np.einsum("fij,fj->fi", grad[ok], d), axis=1)
+    return s[:, 0], s[:, 1], along(h), along(m)
 
 
 def near_body(cloth, body, within=0.01):
@@ -127,6 +123,7 @@ def main():
     loops = sorted(boundary_loops(f), key=lambda l: v0[[e[0] for e in l], 1].mean())
     edges = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), 1), axis=0)
     a0, l0 = face_areas(v0, f), np.linalg.norm(v0[edges[:, 0]] - v0[edges[:, 1]], axis=1)
+    print(f"reference: {len(f)} faces, mean edge {100 * l0.mean():.2f} cm")
     for frame in a.frames:
         v, f2 = load(a.dir / f"cloth_{frame:04d}.obj")
         assert (f2 == f).all(), "frames of different meshes"
@@ -134,8 +131,8 @@ def main():
         lengths = " ".join(f"{100 * sum(np.linalg.norm(v[i] - v[j]) for i, j in l):.1f}" for l in loops)
         radius, spread = hem_radius(v, loops[0]) if loops else (float("nan"), float("nan"))
         body, _ = load(a.dir / f"body_{frame:04d}.obj")
-        hoop, meridian = hoop_meridian(v0, v, f)
-        s1, s2 = principal_stretches(v0, v, f)
+        s1, s2, hoop, meridian = stretches(v0, v, f)
+        hoop, meridian = np.median(hoop), np.median(meridian)
         off = 100 * ((s1 > 1.1) | (s2 < 0.9)).mean()
         print(
             f"frame {frame}: area {100 * (face_areas(v, f).sum() / a0.sum() - 1):+.1f} %, "

@@ -7,8 +7,9 @@
 //! rule the run trains with (senc-gia's [`VolumeRule::Winding`]; a hole the scene leaves
 //! open is fanned virtually and counted as closed), `L_self-col = 100 · |6V|`, the share
 //! of cloth vertices inside the full body, the distance from the linearly skinned
-//! garment, and the growth of the garment's area over its rest area. Speed is graph
-//! building plus network (plus the refinement), or the solver.
+//! garment, and how the garment is stretched against its rest mesh (area growth and the
+//! faces' principal strain). Speed is graph building plus network (plus the refinement), or
+//! the solver.
 
 use senc_energy::EnergyConfig;
 use senc_geom::{close_holes, Closure, Vec3};
