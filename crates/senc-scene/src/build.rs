@@ -125,6 +125,21 @@ pub fn transfer_weights(points: &[Vec3], body: &[Vec3], body_weights: &SkinWeigh
         .collect()
 }
 
+/// The number of points of a garment's faces inside the body, sampled at each face's
+/// centroid and its edges' quarter points: a garment whose vertices all lie outside the body
+/// can still cut through it with its faces (a long face across the top of a shoulder).
+pub fn face_points_inside(positions: &[Vec3], faces: &[[u32; 3]], body: &BodyQuery) -> usize {
+    faces
+        .par_iter()
+        .map(|f| {
+            let [a, b, c] = f.map(|i| positions[i as usize]);
+            let edges = [(a, b), (b, c), (c, a)];
+            let points = edges.iter().flat_map(|&(p, q)| [0.25, 0.5, 0.75].map(|t| p * (1.0 - t) + q * t));
+            std::iter::once((a + b + c) / 3.0).chain(points).filter(|p| body.closest(p).inside).count()
+        })
+        .sum()
+}
+
 /// Settings of [`push_out`].
 #[derive(Debug, Clone, Copy)]
 pub struct PushOut {
@@ -134,24 +149,186 @@ pub struct PushOut {
     pub rounds: usize,
     /// Laplacian smoothing weight of pushed vertices per round (0..1).
     pub smoothing: f64,
+    /// Rings of outside vertices that a vertex pushed along its normal drags along.
+    pub drag_rings: usize,
+    /// Share of a ring's displacement that the next ring out takes (0..1).
+    pub drag: f64,
 }
 
 impl Default for PushOut {
     /// 5 mm clearance (above the 2 mm collision threshold ε of the body term, so the
-    /// first frame starts without body-collision energy), 30 rounds, smoothing 0.5.
+    /// first frame starts without body-collision energy), 30 rounds, smoothing 0.5; vertices
+    /// pushed along their normals drag 8 rings, each taking 0.8 of the last.
     fn default() -> Self {
-        Self { margin: 5e-3, rounds: 30, smoothing: 0.5 }
+        Self { margin: 5e-3, rounds: 30, smoothing: 0.5, drag_rings: 8, drag: 0.8 }
     }
 }
 
-/// Moves every garment vertex that is inside the body or closer than `margin` to its
-/// surface out along the surface normal (from the closest point), then smooths the moved
-/// region so the garment does not crease; repeats, and ends with a pure push so that on
-/// return no vertex is inside. Returns the number of vertices moved in the first round.
+/// Outward unit vertex normals: the sum of the adjacent faces' area vectors.
+fn vertex_normals(positions: &[Vec3], faces: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut acc = vec![Vec3::zeros(); positions.len()];
+    for f in faces {
+        let [a, b, c] = f.map(|i| positions[i as usize]);
+        let area = (b - a).cross(&(c - a));
+        for &i in f {
+            acc[i as usize] += area;
+        }
+    }
+    acc.into_iter().map(|v| v.try_normalize(1e-300).unwrap_or_else(Vec3::zeros)).collect()
+}
+
+/// The least cosine between a vertex's normal and the way out to the closest surface point
+/// at which [`push_out`] takes that short way (60°).
+const NEAREST_AGREES: f64 = 0.5;
+
+/// How far `p` must move along the unit direction `dir` to lie `margin` outside the body,
+/// by sphere tracing; `None` where the line does not get there within 0.5 m (a normal that
+/// runs along the inside of the body).
+fn exit_distance(body: &BodyQuery, p: &Vec3, dir: &Vec3, margin: f64) -> Option<f64> {
+    const REACH: f64 = 0.5;
+    const MIN_STEP: f64 = 2e-4;
+    let mut t = 0.0;
+    for _ in 0..256 {
+        let c = body.closest(&(p + dir * t));
+        if c.signed_distance >= margin {
+            return Some(t);
+        }
+        t += (margin - c.signed_distance).max(MIN_STEP);
+        if t > REACH {
+            return None;
+        }
+    }
+    None
+}
+
+/// A garment's faces with each vertex's neighbours and the faces around it.
+#[derive(Clone, Copy)]
+struct Star<'a> {
+    faces: &'a [[u32; 3]],
+    nbrs: &'a [Vec<u32>],
+    stars: &'a [Vec<u32>],
+}
+
+/// The normal-led push of [`push_out`]. Each vertex that is inside the body, or one of whose
+/// edges or faces runs through it, takes the deepest such point of its star. Where the
+/// closest surface point of that point lies within 60° of the vertex's outward normal
+/// (faces oriented outwards, as [`crate::fit::orient_outward`] leaves them) and less than
+/// `margin` away, the vertex moves the short way, to `margin` beyond that surface point.
+/// Otherwise it moves along its own normal, to `margin` beyond where that line leaves the
+/// body (found by sphere tracing: inside, the distance to the surface is a step that cannot
+/// overshoot it), and drags the outside vertices around it along, fading by
+/// [`PushOut::drag`] per ring over [`PushOut::drag_rings`] rings, so the moved region does
+/// not tear away from its neighbourhood. Repeated (at most `cfg.rounds` times) until no
+/// vertex, edge or face is inside.
+fn push_along_normals(positions: &mut [Vec3], mesh: &Star<'_>, body: &BodyQuery, cfg: &PushOut) {
+    let Star { faces, nbrs, stars } = *mesh;
+    for _ in 0..cfg.rounds {
+        let normals = vertex_normals(positions, faces);
+        // The deepest point of each vertex's star that is inside the body: the vertex itself,
+        // a quarter point of one of its edges or the centroid of one of its faces (a face can
+        // cross the body between outside vertices, at a corner such as the top of a shoulder).
+        let pos: &[Vec3] = positions;
+        let need: Vec<Option<(Vec3, bool)>> = (0..pos.len())
+            .into_par_iter()
+            .map(|i| {
+                let p = pos[i];
+                let mut deepest: Option<(Vec3, f64, Vec3)> = None;
+                let mut consider = |q: Vec3| {
+                    let c = body.closest(&q);
+                    if c.inside && deepest.is_none_or(|(_, d, _)| c.signed_distance < d) {
+                        deepest = Some((q, c.signed_distance, c.point));
+                    }
+                };
+                consider(p);
+                for &j in &nbrs[i] {
+                    let q = pos[j as usize];
+                    for t in [0.25, 0.5, 0.75] {
+                        consider(p * (1.0 - t) + q * t);
+                    }
+                }
+                for &f in &stars[i] {
+                    consider(faces[f as usize].iter().fold(Vec3::zeros(), |s, &v| s + pos[v as usize]) / 3.0);
+                }
+                let (q, depth, at) = deepest?;
+                let out = (at - q).try_normalize(1e-300).unwrap_or_else(Vec3::zeros);
+                let nearest = at - q + out * cfg.margin;
+                let nrm = normals[i];
+                if -depth < cfg.margin && nrm.dot(&out) >= NEAREST_AGREES {
+                    // The closest surface point lies ahead of the normal: the short way is
+                    // the right one, and nothing else need follow.
+                    return Some((nearest, false));
+                }
+                Some(match exit_distance(body, &q, &nrm, cfg.margin) {
+                    Some(t) => (nrm * t, true),
+                    // No way out along the normal: to the closest surface point instead.
+                    None => (nearest, false),
+                })
+            })
+            .collect();
+        if need.iter().all(Option::is_none) {
+            return;
+        }
+        // Spread the displacements ring by ring over the vertices not pushed themselves:
+        // each takes `drag` times the mean of its displaced neighbours from the ring before.
+        let mut disp: Vec<Vec3> = need.iter().map(|d| d.map_or_else(Vec3::zeros, |(d, _)| d)).collect();
+        let mut reached: Vec<bool> = need.iter().map(Option::is_some).collect();
+        // Only the pushes along a normal drag their neighbourhood: a vertex moved the short
+        // way to the closest surface point moves about as far as the closest-point push would.
+        let mut drags: Vec<bool> = need.iter().map(|d| d.is_some_and(|(_, n)| n)).collect();
+        for _ in 0..cfg.drag_rings {
+            let next: Vec<Option<Vec3>> = (0..positions.len())
+                .into_par_iter()
+                .map(|i| {
+                    if reached[i] {
+                        return None;
+                    }
+                    let (sum, count) = nbrs[i]
+                        .iter()
+                        .filter(|&&j| drags[j as usize])
+                        .fold((Vec3::zeros(), 0usize), |(s, k), &j| (s + disp[j as usize], k + 1));
+                    (count > 0).then(|| sum * (cfg.drag / count as f64))
+                })
+                .collect();
+            let mut grew = false;
+            for (i, d) in next.into_iter().enumerate() {
+                if let Some(d) = d {
+                    disp[i] = d;
+                    reached[i] = true;
+                    drags[i] = true;
+                    grew = true;
+                }
+            }
+            if !grew {
+                break;
+            }
+        }
+        for (p, d) in positions.iter_mut().zip(&disp) {
+            *p += d;
+        }
+    }
+}
+
+/// Moves the garment out of the body. Returns the number of vertices inside the body or
+/// closer than `margin` to it on entry.
+///
+/// First by the closest surface points: every vertex closer than `margin` (inside or not)
+/// moves to `margin` from its closest surface point, along the surface normal there, and the
+/// moved region is smoothed so the garment does not crease; repeated, ending with a pure
+/// push so that no vertex is inside ([`push_nearest`]). Where that leaves faces through the
+/// body ([`face_points_inside`]), the closest point was the wrong way somewhere: a garment
+/// fitted too low on a shoulder has vertices nearer the side of the arm than its top, and
+/// pushed sideways they leave faces spanning the shoulder, every vertex outside. Then the
+/// push is also made led by the garment's normals ([`push_along_normals`], then the closest
+/// points for the clearance, then the normals again, since the smoothing can pull an edge
+/// back across a corner), and of the two results the one with fewer vertices inside, then
+/// fewer face points inside, is kept (the first on a tie). The normals are the wrong way in
+/// a fold of the body (the crotch, an armpit) where the closest point is right, so neither
+/// push serves every garment.
 pub fn push_out(positions: &mut [Vec3], faces: &[[u32; 3]], body: &BodyQuery, cfg: PushOut) -> usize {
     let n = positions.len();
     let mut nbrs: Vec<Vec<u32>> = vec![Vec::new(); n];
-    for f in faces {
+    let mut stars: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (fi, f) in faces.iter().enumerate() {
         for k in 0..3 {
             let (a, b) = (f[k], f[(k + 1) % 3]);
             if !nbrs[a as usize].contains(&b) {
@@ -160,8 +337,32 @@ pub fn push_out(positions: &mut [Vec3], faces: &[[u32; 3]], body: &BodyQuery, cf
             if !nbrs[b as usize].contains(&a) {
                 nbrs[b as usize].push(a);
             }
+            stars[a as usize].push(fi as u32);
         }
     }
+    let first = positions.par_iter().filter(|p| body.closest(p).signed_distance < 0.99 * cfg.margin).count();
+    let start = positions.to_vec();
+    push_nearest(positions, &nbrs, body, &cfg);
+    let through = face_points_inside(positions, faces, body);
+    if through > 0 {
+        let mesh = Star { faces, nbrs: &nbrs, stars: &stars };
+        let mut led = start;
+        push_along_normals(&mut led, &mesh, body, &cfg);
+        push_nearest(&mut led, &nbrs, body, &cfg);
+        push_along_normals(&mut led, &mesh, body, &cfg);
+        let score = |p: &[Vec3]| (body.inside(p).len(), face_points_inside(p, faces, body));
+        if score(&led) < (body.inside(positions).len(), through) {
+            positions.copy_from_slice(&led);
+        }
+    }
+    first
+}
+
+/// The closest-point push of [`push_out`]: `cfg.rounds` rounds of pushing every vertex closer
+/// than `margin` out to `margin` from its closest surface point and smoothing the moved region
+/// and its neighbours, then up to five rounds of pure pushes.
+fn push_nearest(positions: &mut [Vec3], nbrs: &[Vec<u32>], body: &BodyQuery, cfg: &PushOut) {
+    let n = positions.len();
     let push = |positions: &mut [Vec3]| -> Vec<bool> {
         let moved: Vec<Option<Vec3>> = positions
             .par_iter()
@@ -194,14 +395,9 @@ pub fn push_out(positions: &mut [Vec3], faces: &[[u32; 3]], body: &BodyQuery, cf
             })
             .collect()
     };
-    let mut first = 0;
-    for round in 0..cfg.rounds {
+    for _ in 0..cfg.rounds {
         let moved = push(positions);
-        let count = moved.iter().filter(|&&m| m).count();
-        if round == 0 {
-            first = count;
-        }
-        if count == 0 {
+        if !moved.iter().any(|&m| m) {
             break;
         }
         // Smooth the moved vertices and their neighbours towards their neighbours' mean.
@@ -226,5 +422,4 @@ pub fn push_out(positions: &mut [Vec3], faces: &[[u32; 3]], body: &BodyQuery, cf
             break;
         }
     }
-    first
 }

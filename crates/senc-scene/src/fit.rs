@@ -24,7 +24,7 @@ use senc_geom::repair::{repair, repair_parts, RepairConfig, RepairReport, Repair
 use senc_geom::{TriMesh, Vec3};
 
 use crate::assets::{BodyAsset, GarmentAsset, NamedLoop};
-use crate::build::{push_out, transfer_weights, PushOut, WeightLists};
+use crate::build::{face_points_inside, push_out, transfer_weights, PushOut, WeightLists};
 use crate::error::SceneError;
 use crate::skeleton::{skin, Pose, SkinWeights};
 use senc_geom::BodyQuery;
@@ -131,6 +131,10 @@ pub struct FitReport {
     pub inside_before: usize,
     /// Vertices inside after.
     pub inside_after: usize,
+    /// Points of the faces inside the body after the push-out
+    /// ([`crate::build::face_points_inside`]): faces through the body between vertices
+    /// outside it.
+    pub face_points_inside: usize,
     /// Smallest signed distance to the body after fitting, m.
     pub min_distance: f64,
     /// Arm correction applied, degrees (0 for a placed garment, for sleeves that already lie
@@ -623,6 +627,7 @@ fn fit_repaired(
     let (ops1, (_, quality_out)) = clean(&mut positions, &mut faces, Some(&mut weights))?;
     let weights = SkinWeights::from_lists(&weights)?;
     let inside_after = query.inside(&positions).len();
+    let face_points_inside = face_points_inside(&positions, &faces, &query);
     let min_distance = query.min_signed_distance(&positions);
     let mesh = TriMesh::new(positions.clone(), faces.clone())?;
     let loops = name_loops(&mesh, body)?;
@@ -636,6 +641,7 @@ fn fit_repaired(
             alignment,
             inside_before,
             inside_after,
+            face_points_inside,
             min_distance,
             arm_correction_deg,
             remesh_ops: (ops0.0 + ops1.0, ops0.1 + ops1.1),
@@ -664,7 +670,7 @@ pub fn describe(asset: &GarmentAsset, rep: &FitReport) -> String {
         (None, false) => "not on the body, not aligned".to_string(),
     };
     format!(
-        "{}: {} vertices, {} faces, loops {:?}; {placed} (distance to the body: median above the crotch {:.3} m, high quantile beyond the hem allowance {:.3} m); repair: {}; thin triangles: {} collapses, {} flips, worst quality {:.3} -> {:.3}; arm correction {:.1} deg; inside the body before push-out {}, after {}; min distance to body {:.4} m",
+        "{}: {} vertices, {} faces, loops {:?}; {placed} (distance to the body: median above the crotch {:.3} m, high quantile beyond the hem allowance {:.3} m); repair: {}; thin triangles: {} collapses, {} flips, worst quality {:.3} -> {:.3}; arm correction {:.1} deg; inside the body before push-out {}, after {} (face points {}); min distance to body {:.4} m",
         asset.name,
         asset.positions.len(),
         asset.faces.len(),
@@ -679,6 +685,7 @@ pub fn describe(asset: &GarmentAsset, rep: &FitReport) -> String {
         rep.arm_correction_deg,
         rep.inside_before,
         rep.inside_after,
+        rep.face_points_inside,
         rep.min_distance
     )
 }

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 
 use senc_geom::repair::RepairError;
 use senc_geom::{TriMesh, Vec3};
+use senc_scene::build::{face_points_inside, push_out, PushOut};
 use senc_scene::fit::{align, fit, fit_obj, name_loops, FitOptions, Select, TopOpening};
 use senc_scene::{BodyAsset, BodyQuery, GarmentAsset, SceneError};
 
@@ -121,6 +122,7 @@ fn a_broken_export_is_repaired_and_fits_as_the_clean_file_does() {
     assert!(gap < 1e-9, "repaired and clean fits differ by {gap} m");
     assert_eq!(fixed.faces.len(), clean.faces.len());
     assert!(rep.min_distance >= 0.99 * in_place().margin, "{}", rep.min_distance);
+    assert_eq!(rep.face_points_inside, 0);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -418,4 +420,102 @@ fn cut(mesh: &TriMesh, keep: impl Fn(&Vec3) -> bool) -> TriMesh {
         }
     }
     TriMesh::new(positions, faces).unwrap()
+}
+
+/// A closed box `[-h, h]³`, each side split into `k × k` quads, outward triangles.
+fn box_mesh(h: f64, k: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let (mut pos, mut faces) = (Vec::new(), Vec::new());
+    // Each side: an origin corner and two edge vectors whose cross product points out.
+    for axis in 0..3 {
+        for sign in [-1.0, 1.0] {
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let (mut eu, mut ev, mut o) = (Vec3::zeros(), Vec3::zeros(), Vec3::zeros());
+            eu[u] = 2.0 * h;
+            ev[v] = 2.0 * h;
+            o[axis] = sign * h;
+            o[u] = -h;
+            o[v] = -h;
+            if sign < 0.0 {
+                std::mem::swap(&mut eu, &mut ev);
+                o[u] = -h;
+                o[v] = -h;
+            }
+            let base = pos.len() as u32;
+            for i in 0..=k {
+                for j in 0..=k {
+                    pos.push(o + eu * (i as f64 / k as f64) + ev * (j as f64 / k as f64));
+                }
+            }
+            let id = |i: usize, j: usize| base + (i * (k + 1) + j) as u32;
+            for i in 0..k {
+                for j in 0..k {
+                    faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+                    faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+                }
+            }
+        }
+    }
+    // Weld the shared edges of the sides.
+    let mut keep: Vec<Vec3> = Vec::new();
+    let mut map = vec![0u32; pos.len()];
+    for (i, p) in pos.iter().enumerate() {
+        map[i] = match keep.iter().position(|q| (q - p).norm() < 1e-12) {
+            Some(j) => j as u32,
+            None => {
+                keep.push(*p);
+                (keep.len() - 1) as u32
+            }
+        };
+    }
+    (keep, faces.iter().map(|f| f.map(|i| map[i as usize])).collect())
+}
+
+/// A garment fitted too low on a shoulder: a cap whose top lies 3 cm deep in a box, and
+/// whose deep vertices near the box's side walls are closer to the walls than to the top.
+/// Pushed to the closest surface point, those would go sideways and leave faces spanning the
+/// box's edge; the push-out moves them along the cap's own normal, up over the top, so that
+/// no face crosses the box, no face turns over and no edge more than doubles.
+#[test]
+fn a_cap_sunk_into_a_shoulder_is_pushed_up_over_it_not_through_it() {
+    let h = 0.1;
+    let (bp, bf) = box_mesh(h, 4);
+    let body = BodyQuery::new(&bp, &bf).unwrap();
+    assert!(body.closest(&Vec3::zeros()).inside && !body.closest(&Vec3::new(0.0, 0.2, 0.0)).inside);
+    let n = 24;
+    let (mut pos, mut faces) = (Vec::new(), Vec::new());
+    for i in 0..=n {
+        for j in 0..=n {
+            let (x, z) = (-0.15 + 0.3 * i as f64 / n as f64, -0.15 + 0.3 * j as f64 / n as f64);
+            pos.push(Vec3::new(x, 0.07 - 1.5 * (x * x + z * z), z));
+        }
+    }
+    let id = |i: usize, j: usize| (i * (n + 1) + j) as u32;
+    for i in 0..n {
+        for j in 0..n {
+            // Counter-clockwise seen from +y: normals up, out of the box's top.
+            faces.push([id(i, j), id(i, j + 1), id(i + 1, j + 1)]);
+            faces.push([id(i, j), id(i + 1, j + 1), id(i + 1, j)]);
+        }
+    }
+    let rest = pos.clone();
+    let longest = |p: &[Vec3]| {
+        faces
+            .iter()
+            .flat_map(|f| [(f[0], f[1]), (f[1], f[2]), (f[2], f[0])])
+            .map(|(a, b)| (p[a as usize] - p[b as usize]).norm())
+            .fold(0.0, f64::max)
+    };
+    assert!(body.inside(&pos).len() > 100, "the cap must start deep in the box");
+    push_out(&mut pos, &faces, &body, PushOut::default());
+    assert!(body.inside(&pos).is_empty());
+    assert!(body.min_signed_distance(&pos) >= 0.99 * PushOut::default().margin);
+    let through = face_points_inside(&pos, &faces, &body);
+    assert_eq!(through, 0, "face points inside the box");
+    for f in &faces {
+        let [a, b, c] = f.map(|i| pos[i as usize]);
+        let [ra, rb, rc] = f.map(|i| rest[i as usize]);
+        let (nn, nr) = ((b - a).cross(&(c - a)), (rb - ra).cross(&(rc - ra)));
+        assert!(nn.dot(&nr) > 0.0, "face {f:?} turned over");
+    }
+    assert!(longest(&pos) < 2.0 * longest(&rest), "{} against {}", longest(&pos), longest(&rest));
 }

@@ -346,6 +346,8 @@ fn committed_garments_are_valid_named_and_outside_the_body() {
             inside.len(),
             &inside[..inside.len().min(5)]
         );
+        let through = senc_scene::build::face_points_inside(&g.positions, &g.faces, &q);
+        assert_eq!(through, 0, "{name}: faces through the body");
     }
 }
 

@@ -653,10 +653,10 @@ fn committed_checkpoints_load_and_give_their_recorded_rollout() {
         ("pants", [-0.002745, 0.003385, -0.005107]),
         ("skirt", [0.003477, -0.002045, -0.003576]),
         ("skirt-baseline", [0.003718, -0.003528, -0.003592]),
-        ("tshirt", [-0.001157, -0.003438, -0.012232]),
-        ("tshirt-baseline", [0.001584, 0.000735, -0.01495]),
-        ("tshirt-baseline-seed1", [0.001844, -0.002856, -0.012743]),
-        ("tshirt-seed1", [0.00042, -0.000976, -0.010487]),
+        ("tshirt", [-0.000426, -0.000809, -0.012205]),
+        ("tshirt-baseline", [0.00203, 0.00028, -0.01208]),
+        ("tshirt-baseline-seed1", [0.000053, -0.001502, -0.012982]),
+        ("tshirt-seed1", [0.001559, -0.003296, -0.01953]),
     ];
     let mut found: Vec<String> = std::fs::read_dir(root().join("checkpoints"))
         .unwrap()
@@ -666,6 +666,8 @@ fn committed_checkpoints_load_and_give_their_recorded_rollout() {
         .collect();
     found.sort();
     assert_eq!(found, expected.iter().map(|(n, _)| n.to_string()).collect::<Vec<_>>());
+    // Every checkpoint is checked before failing, so one run lists all the new values.
+    let mut moved = Vec::new();
     for (name, want) in expected {
         let dir = root().join("checkpoints").join(name);
         let cfg = training_config(&dir).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -687,9 +689,11 @@ fn committed_checkpoints_load_and_give_their_recorded_rollout() {
         let (x0, x3) = (&r.cloth[0], &r.cloth[3]);
         assert!(x3.iter().all(|v| v.iter().all(|c| c.is_finite())), "{name}: non-finite rollout");
         let mean = x0.iter().zip(x3).map(|(a, b)| b - a).sum::<senc_geom::Vec3>() / x0.len() as f64;
-        let err = (mean - senc_geom::Vec3::from(*want)).norm();
-        assert!(err < 1e-3, "{name}: mean displacement after 3 frames {mean:?}, recorded {want:?}");
+        if (mean - senc_geom::Vec3::from(*want)).norm() >= 1e-3 {
+            moved.push(format!("{name}: mean displacement after 3 frames {mean:?}, recorded {want:?}"));
+        }
     }
+    assert!(moved.is_empty(), "{}", moved.join("\n"));
 }
 
 /// A `[scene.material]` table becomes one energy material: HOOD's defaults where it gives
