@@ -4,7 +4,7 @@
 
 DIR holds `cargo xtask simulate` output (`cloth_NNNN.obj`, `body_NNNN.obj`). For each
 frame it prints, against DIR's frame 0 (the skinned start) or against `--against`:
-(after a first line with the reference's mean edge length)
+(after a first line with the reference's mean and longest edge)
 - the growth of the total area, and the median face-area and edge-length ratios;
 - the faces' principal stretches (the larger and the smaller, medians) and the share of
   faces with either of them more than 10 % off 1;
@@ -123,7 +123,7 @@ def main():
     loops = sorted(boundary_loops(f), key=lambda l: v0[[e[0] for e in l], 1].mean())
     edges = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), 1), axis=0)
     a0, l0 = face_areas(v0, f), np.linalg.norm(v0[edges[:, 0]] - v0[edges[:, 1]], axis=1)
-    print(f"reference: {len(f)} faces, mean edge {100 * l0.mean():.2f} cm")
+    print(f"reference: {len(f)} faces, mean edge {100 * l0.mean():.2f} cm, longest {100 * l0.max():.2f} cm")
     for frame in a.frames:
         v, f2 = load(a.dir / f"cloth_{frame:04d}.obj")
         assert (f2 == f).all(), "frames of different meshes"

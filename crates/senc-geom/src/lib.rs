@@ -34,7 +34,7 @@ pub mod topology;
 pub use body_query::{BodyQuery, Closest, NearestFaces};
 pub use closure::{close_holes, Closure, HoleSelection};
 pub use error::MeshError;
-pub use mesh::TriMesh;
+pub use mesh::{vertex_normals, TriMesh};
 pub use topology::Topology;
 
 // The test meshes live in senc-testmesh, which depends on this crate; the unit tests here

@@ -12,6 +12,25 @@ use crate::Vec3;
 /// triangles.
 pub const ZERO_AREA_REL: f64 = 1e-14;
 
+/// Unit area-weighted vertex normals of `positions` under `faces` (each face adds
+/// `(p1 - p0) × (p2 - p0)` to its three vertices); zero for a vertex whose faces are all
+/// degenerate.
+pub fn vertex_normals(positions: &[Vec3], faces: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut n = vec![Vec3::zeros(); positions.len()];
+    for f in faces {
+        let [a, b, c] = f.map(|i| i as usize);
+        let w = (positions[b] - positions[a]).cross(&(positions[c] - positions[a]));
+        n[a] += w;
+        n[b] += w;
+        n[c] += w;
+    }
+    for v in &mut n {
+        let len = v.norm();
+        *v = if len > 0.0 && len.is_finite() { *v / len } else { Vec3::zeros() };
+    }
+    n
+}
+
 /// A manifold, consistently oriented triangle mesh.
 ///
 /// # Invariants

@@ -51,7 +51,7 @@
 use std::time::Instant;
 
 use senc_geom::neighbors::{nearest_within, radius_pairs};
-use senc_geom::{TriMesh, Vec3};
+use senc_geom::{vertex_normals, TriMesh, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::ModelError;
@@ -528,23 +528,6 @@ fn elastic_accelerations(frame: &FrameState<'_>) -> Result<Vec<Vec3>, ModelError
 
 /// Most elastic models [`elastic_accelerations`] keeps per thread.
 const ELASTIC_CACHE: usize = 8;
-
-/// Unit area-weighted vertex normals; zero for a vertex whose faces are all degenerate.
-pub fn vertex_normals(positions: &[Vec3], faces: &[[u32; 3]]) -> Vec<Vec3> {
-    let mut n = vec![Vec3::zeros(); positions.len()];
-    for f in faces {
-        let [a, b, c] = f.map(|i| i as usize);
-        let w = (positions[b] - positions[a]).cross(&(positions[c] - positions[a]));
-        n[a] += w;
-        n[b] += w;
-        n[c] += w;
-    }
-    for v in &mut n {
-        let len = v.norm();
-        *v = if len > 0.0 && len.is_finite() { *v / len } else { Vec3::zeros() };
-    }
-    n
-}
 
 /// Lumped vertex masses `m_i = Σ_{f∋i} ρ A_f / 3`, kg, from the rest mesh.
 pub fn vertex_masses(rest: &TriMesh, density: f64) -> Vec<f64> {

@@ -5,10 +5,9 @@
 use std::collections::HashMap;
 
 use rayon::prelude::*;
-use senc_geom::Vec3;
+use senc_geom::{vertex_normals, BodyQuery, Vec3};
 
 use crate::skeleton::SkinWeights;
-use senc_geom::BodyQuery;
 
 /// Per-vertex weight lists, the editable form of [`SkinWeights`].
 pub type WeightLists = Vec<Vec<(u16, f32)>>;
@@ -164,19 +163,6 @@ impl Default for PushOut {
     }
 }
 
-/// Outward unit vertex normals: the sum of the adjacent faces' area vectors.
-fn vertex_normals(positions: &[Vec3], faces: &[[u32; 3]]) -> Vec<Vec3> {
-    let mut acc = vec![Vec3::zeros(); positions.len()];
-    for f in faces {
-        let [a, b, c] = f.map(|i| positions[i as usize]);
-        let area = (b - a).cross(&(c - a));
-        for &i in f {
-            acc[i as usize] += area;
-        }
-    }
-    acc.into_iter().map(|v| v.try_normalize(1e-300).unwrap_or_else(Vec3::zeros)).collect()
-}
-
 /// The least cosine between a vertex's normal and the way out to the closest surface point
 /// at which [`push_out`] takes that short way (60°).
 const NEAREST_AGREES: f64 = 0.5;
@@ -258,6 +244,10 @@ fn push_along_normals(positions: &mut [Vec3], mesh: &Star<'_>, body: &BodyQuery,
                     // the right one, and nothing else need follow.
                     return Some((nearest, false));
                 }
+                if nrm == Vec3::zeros() {
+                    // All faces around the vertex degenerate: no normal to follow.
+                    return Some((nearest, false));
+                }
                 Some(match exit_distance(body, &q, &nrm, cfg.margin) {
                     Some(t) => (nrm * t, true),
                     // No way out along the normal: to the closest surface point instead.
@@ -308,8 +298,8 @@ fn push_along_normals(positions: &mut [Vec3], mesh: &Star<'_>, body: &BodyQuery,
     }
 }
 
-/// Moves the garment out of the body. Returns the number of vertices inside the body or
-/// closer than `margin` to it on entry.
+/// Moves the garment out of the body. Returns the number of vertices the first round of the
+/// closest-point push moved (those inside the body or closer than `margin` to it on entry).
 ///
 /// First by the closest surface points: every vertex closer than `margin` (inside or not)
 /// moves to `margin` from its closest surface point, along the surface normal there, and the
@@ -340,9 +330,8 @@ pub fn push_out(positions: &mut [Vec3], faces: &[[u32; 3]], body: &BodyQuery, cf
             stars[a as usize].push(fi as u32);
         }
     }
-    let first = positions.par_iter().filter(|p| body.closest(p).signed_distance < 0.99 * cfg.margin).count();
     let start = positions.to_vec();
-    push_nearest(positions, &nbrs, body, &cfg);
+    let first = push_nearest(positions, &nbrs, body, &cfg);
     let through = face_points_inside(positions, faces, body);
     if through > 0 {
         let mesh = Star { faces, nbrs: &nbrs, stars: &stars };
@@ -360,8 +349,9 @@ pub fn push_out(positions: &mut [Vec3], faces: &[[u32; 3]], body: &BodyQuery, cf
 
 /// The closest-point push of [`push_out`]: `cfg.rounds` rounds of pushing every vertex closer
 /// than `margin` out to `margin` from its closest surface point and smoothing the moved region
-/// and its neighbours, then up to five rounds of pure pushes.
-fn push_nearest(positions: &mut [Vec3], nbrs: &[Vec<u32>], body: &BodyQuery, cfg: &PushOut) {
+/// and its neighbours, then up to five rounds of pure pushes. Returns the number of vertices
+/// the first round moved.
+fn push_nearest(positions: &mut [Vec3], nbrs: &[Vec<u32>], body: &BodyQuery, cfg: &PushOut) -> usize {
     let n = positions.len();
     let push = |positions: &mut [Vec3]| -> Vec<bool> {
         let moved: Vec<Option<Vec3>> = positions
@@ -395,9 +385,12 @@ fn push_nearest(positions: &mut [Vec3], nbrs: &[Vec<u32>], body: &BodyQuery, cfg
             })
             .collect()
     };
+    let mut first = None;
     for _ in 0..cfg.rounds {
         let moved = push(positions);
-        if !moved.iter().any(|&m| m) {
+        let count = moved.iter().filter(|&&m| m).count();
+        first.get_or_insert(count);
+        if count == 0 {
             break;
         }
         // Smooth the moved vertices and their neighbours towards their neighbours' mean.
@@ -422,4 +415,5 @@ fn push_nearest(positions: &mut [Vec3], nbrs: &[Vec<u32>], body: &BodyQuery, cfg
             break;
         }
     }
+    first.unwrap_or(0)
 }

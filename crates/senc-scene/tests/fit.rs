@@ -422,54 +422,6 @@ fn cut(mesh: &TriMesh, keep: impl Fn(&Vec3) -> bool) -> TriMesh {
     TriMesh::new(positions, faces).unwrap()
 }
 
-/// A closed box `[-h, h]³`, each side split into `k × k` quads, outward triangles.
-fn box_mesh(h: f64, k: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let (mut pos, mut faces) = (Vec::new(), Vec::new());
-    // Each side: an origin corner and two edge vectors whose cross product points out.
-    for axis in 0..3 {
-        for sign in [-1.0, 1.0] {
-            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-            let (mut eu, mut ev, mut o) = (Vec3::zeros(), Vec3::zeros(), Vec3::zeros());
-            eu[u] = 2.0 * h;
-            ev[v] = 2.0 * h;
-            o[axis] = sign * h;
-            o[u] = -h;
-            o[v] = -h;
-            if sign < 0.0 {
-                std::mem::swap(&mut eu, &mut ev);
-                o[u] = -h;
-                o[v] = -h;
-            }
-            let base = pos.len() as u32;
-            for i in 0..=k {
-                for j in 0..=k {
-                    pos.push(o + eu * (i as f64 / k as f64) + ev * (j as f64 / k as f64));
-                }
-            }
-            let id = |i: usize, j: usize| base + (i * (k + 1) + j) as u32;
-            for i in 0..k {
-                for j in 0..k {
-                    faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-                    faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-                }
-            }
-        }
-    }
-    // Weld the shared edges of the sides.
-    let mut keep: Vec<Vec3> = Vec::new();
-    let mut map = vec![0u32; pos.len()];
-    for (i, p) in pos.iter().enumerate() {
-        map[i] = match keep.iter().position(|q| (q - p).norm() < 1e-12) {
-            Some(j) => j as u32,
-            None => {
-                keep.push(*p);
-                (keep.len() - 1) as u32
-            }
-        };
-    }
-    (keep, faces.iter().map(|f| f.map(|i| map[i as usize])).collect())
-}
-
 /// A garment fitted too low on a shoulder: a cap whose top lies 3 cm deep in a box, and
 /// whose deep vertices near the box's side walls are closer to the walls than to the top.
 /// Pushed to the closest surface point, those would go sideways and leave faces spanning the
@@ -478,8 +430,8 @@ fn box_mesh(h: f64, k: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
 #[test]
 fn a_cap_sunk_into_a_shoulder_is_pushed_up_over_it_not_through_it() {
     let h = 0.1;
-    let (bp, bf) = box_mesh(h, 4);
-    let body = BodyQuery::new(&bp, &bf).unwrap();
+    let cube = senc_testmesh::grid_box(Vec3::repeat(-h), Vec3::repeat(h), 4).unwrap();
+    let body = BodyQuery::new(cube.positions(), cube.faces()).unwrap();
     assert!(body.closest(&Vec3::zeros()).inside && !body.closest(&Vec3::new(0.0, 0.2, 0.0)).inside);
     let n = 24;
     let (mut pos, mut faces) = (Vec::new(), Vec::new());
