@@ -23,6 +23,7 @@ for r in rows:
     dg = r['diagnostics']
     kind = ('every_500th' if r['case'] % 500 == 0 else
             'negative_sum_dropped' if dg.get('negative_sums', 0) > 0 else
+            'perturbed_retries' if dg.get('perturbed_retries', 0) > 0 else
             'probes_disagreed' if dg.get('winding_ray_disagreements', 0) > 0 else
             'flat_tangles' if dg.get('flat_tangles', 0) > 0 else 'negative')
     k = kinds.setdefault(kind, {'n': 0, 'agree': 0, 'disagree_with_skips': 0, 'disagree_without_skips': 0})

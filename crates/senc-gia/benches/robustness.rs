@@ -8,7 +8,8 @@
 //!
 //! With `SENC_ROBUSTNESS_DUMP=DIR` it also writes the closed mesh of every case with a
 //! negative volume or a dropped negative sum, of the first 300 cases whose winding probes
-//! disagreed and of the first 300 with flat tangles, and of every 500th case to `DIR/case_NNNNNN.obj`, and one JSON line per
+//! disagreed, of the first 300 with flat tangles, of the first 300 that were re-run on
+//! jittered positions (`Diagnostics::perturbed_retries`), and of every 500th case to `DIR/case_NNNNNN.obj`, and one JSON line per
 //! written case to `DIR/cases.jsonl` (our volume and diagnostics), for comparison with the
 //! oracle (`reports/gia/robustness_oracle.py DIR`).
 
@@ -29,8 +30,8 @@ fn main() {
         std::fs::create_dir_all(d).unwrap();
         std::fs::File::create(d.join("cases.jsonl")).unwrap()
     });
-    let (mut unclosed, mut negative_sums, mut disagreements, mut n_disputed) = (0, 0, 0, 0);
-    let (mut with_flat, mut n_flat_dumped, mut general_skips) = (0, 0, 0);
+    let (mut unclosed, mut negative_sums, mut disagreements, mut n_disputed, mut n_retried) = (0, 0, 0, 0, 0);
+    let (mut with_flat, mut n_flat_dumped, mut general_skips, mut perturbed) = (0, 0, 0, 0);
     let start = std::time::Instant::now();
     for case in 0..n {
         let base = &bases[case % 2];
@@ -64,7 +65,9 @@ fn main() {
             n_disputed += usize::from(disputed);
             let flat = p.diagnostics.flat_tangles > 0 && n_flat_dumped < 300;
             n_flat_dumped += usize::from(flat);
-            if p.volume < -1e-12 || case % 500 == 0 || disputed || flat || p.diagnostics.negative_sums > 0 {
+            let retried = p.diagnostics.perturbed_retries > 0 && n_retried < 300;
+            n_retried += usize::from(retried);
+            if p.volume < -1e-12 || case % 500 == 0 || disputed || flat || retried || p.diagnostics.negative_sums > 0 {
                 let m = closure.mesh();
                 senc_geom::obj::write_obj(dir.join(format!("case_{case:06}.obj")), m.positions(), m.faces()).unwrap();
                 let d = serde_json::to_string(&p.diagnostics).unwrap();
@@ -93,6 +96,7 @@ fn main() {
                 negative_sums += p.diagnostics.negative_sums;
                 disagreements += usize::from(p.diagnostics.winding_ray_disagreements > 0);
                 with_flat += usize::from(p.diagnostics.flat_tangles > 0);
+                perturbed += usize::from(p.diagnostics.perturbed_retries > 0 && p.diagnostics.patches_skipped == 0);
                 if p.diagnostics.triple_points > 0 {
                     triple += 1;
                 }
@@ -100,7 +104,7 @@ fn main() {
         }
     }
     println!(
-        "{{\"cases\":{n},\"panics\":{panics},\"nan\":{nan},\"negative\":{negative},\"with_volume\":{positive},\"with_skipped_patches\":{with_skips},\"skipped_not_snapped\":{general_skips},\"with_triple_points\":{triple},\"with_unclosed_tangles\":{unclosed},\"negative_sums_dropped\":{negative_sums},\"with_ray_disagreements\":{disagreements},\"with_flat_tangles\":{with_flat},\"seconds\":{:.1}}}",
+        "{{\"cases\":{n},\"panics\":{panics},\"nan\":{nan},\"negative\":{negative},\"with_volume\":{positive},\"resolved_by_perturbed_retries\":{perturbed},\"with_skipped_patches\":{with_skips},\"skipped_not_snapped\":{general_skips},\"with_triple_points\":{triple},\"with_unclosed_tangles\":{unclosed},\"negative_sums_dropped\":{negative_sums},\"with_ray_disagreements\":{disagreements},\"with_flat_tangles\":{with_flat},\"seconds\":{:.1}}}",
         start.elapsed().as_secs_f64()
     );
 }

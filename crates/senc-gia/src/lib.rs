@@ -231,12 +231,42 @@ pub struct Diagnostics {
     pub gradient_fallbacks: usize,
     /// Regions dropped because a contour of their group failed ([`VolumeRule::SmallerSide`]).
     pub groups_skipped: usize,
+    /// Re-runs on jittered positions ([`GiaWorkspace::penetration`], [`PERTURBATION`]):
+    /// 0 when the first run skipped nothing; `k ≤ PERTURBED_RETRIES` when the `k`-th
+    /// re-run was the first to skip nothing (its result is reported); `PERTURBED_RETRIES`
+    /// with `patches_skipped > 0` when none did (the unperturbed run is reported).
+    pub perturbed_retries: usize,
     /// Crossing face pairs that involve a virtual fan (a hole the closure leaves open, see
     /// the crate docs, "Holes left open"): the surface passes through the hole's fan, or a
     /// fan over a tangled hole crosses itself. These crossings are measured like any other;
     /// this counts them so that a caller can tell whether the open hole's closure shaped the
     /// answer. Included in `intersecting_pairs`.
     pub virtual_fan_pairs: usize,
+}
+
+/// Largest displacement of a perturbed re-run of [`GiaWorkspace::penetration`], relative to
+/// the bounding box's diagonal: far below what simulated cloth resolves, and below
+/// [`winding::FLAT_THICKNESS`], so that cells made by jittering faces that coincide are
+/// still flat.
+pub const PERTURBATION: f64 = 1e-13;
+
+/// Perturbed re-runs of [`GiaWorkspace::penetration`] tried before the skipped patches of
+/// the unperturbed run are reported.
+pub const PERTURBED_RETRIES: usize = 6;
+
+/// A seeded displacement in `[−1, 1)³` for vertex `v` of perturbed run `attempt`
+/// (SplitMix64 of both; the same call gives the same jitter on every machine).
+fn jitter(v: usize, attempt: usize) -> Vec3 {
+    let mut state = (v as u64) ^ ((attempt as u64) << 40);
+    let mut next = || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    };
+    Vec3::new(next(), next(), next())
 }
 
 /// Result of a penetration query.
@@ -329,11 +359,43 @@ impl GiaWorkspace {
     }
 
     /// Penetration volume, area and gradients of the closed mesh at its current positions.
+    ///
+    /// With the winding rule, a run that skips patches (exactly degenerate input: faces of
+    /// zero area, coincident vertices, coplanar faces meeting along a crossing) is repeated
+    /// on the positions moved by a seeded jitter of at most [`PERTURBATION`] times the
+    /// bounding box's diagonal, up to [`PERTURBED_RETRIES`] times with a new jitter each
+    /// time, and the first run that skips nothing is returned
+    /// ([`Diagnostics::perturbed_retries`] says which). The penetration volume changes by at
+    /// most the area times that displacement when the surface moves (the winding number
+    /// changes only where the surface passes), so the answer is that of the given mesh to
+    /// rounding, and its gradient is a one-sided derivative there. Meshes in general
+    /// position, such as simulated garment frames, skip nothing and never pay for this.
     pub fn penetration(&mut self, closure: &Closure, options: &GiaOptions) -> Result<Penetration, GiaError> {
         // On one of rayon's threads from the start: the parallel steps inside (refit,
         // traversal, cut, labelling) then start there directly, not each by handing work
         // from this thread to the pool and waiting for it.
-        rayon::scope(|_| self.penetration_here(closure, options))
+        rayon::scope(|_| {
+            let out = self.penetration_here(closure, options)?;
+            if out.diagnostics.patches_skipped == 0 || options.rule != VolumeRule::Winding {
+                return Ok(out);
+            }
+            let original = &closure.mesh().positions()[..closure.n_original()];
+            let step = PERTURBATION * closure.mesh().bounding_diagonal();
+            let mut moved = closure.clone();
+            for attempt in 1..=PERTURBED_RETRIES {
+                let jittered: Vec<Vec3> =
+                    original.iter().enumerate().map(|(v, p)| p + jitter(v, attempt) * step).collect();
+                moved.update(&jittered).map_err(GiaError::VirtualClosure)?;
+                let mut retry = self.penetration_here(&moved, options)?;
+                if retry.diagnostics.patches_skipped == 0 {
+                    retry.diagnostics.perturbed_retries = attempt;
+                    return Ok(retry);
+                }
+            }
+            let mut out = out;
+            out.diagnostics.perturbed_retries = PERTURBED_RETRIES;
+            Ok(out)
+        })
     }
 
     fn penetration_here(&mut self, closure: &Closure, options: &GiaOptions) -> Result<Penetration, GiaError> {

@@ -593,6 +593,30 @@ pub fn jitter(mesh: &TriMesh, rel: f64, seed: u64) -> Result<TriMesh, ShapeError
     Ok(TriMesh::new(positions, mesh.faces().to_vec())?)
 }
 
+/// Crumples `mesh`: each vertex moves by an independent uniform offset in `[-1, 1]³ · amp`
+/// (m), then every coordinate is rounded to a multiple of `grid` (m), so that exact
+/// coincidences abound: coincident vertices, faces of zero area, coplanar faces crossing.
+/// Seeded (ChaCha8). Faces are kept as they are (zero-area faces included); `amp` finite
+/// and `>= 0`, `grid` finite and `> 0`.
+pub fn crumple_snapped(mesh: &TriMesh, amp: f64, grid: f64, seed: u64) -> Result<TriMesh, ShapeError> {
+    if !(amp.is_finite() && amp >= 0.0) {
+        return Err(ShapeError::InvalidParameter { name: "amp", value: amp, requirement: "must be finite and >= 0" });
+    }
+    if !(grid.is_finite() && grid > 0.0) {
+        return Err(ShapeError::InvalidParameter { name: "grid", value: grid, requirement: "must be finite and > 0" });
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let positions = mesh
+        .positions()
+        .iter()
+        .map(|p| {
+            let d = Vec3::new(rng.random_range(-1.0..=1.0), rng.random_range(-1.0..=1.0), rng.random_range(-1.0..=1.0));
+            (p + d * amp).map(|c| (c / grid).round() * grid)
+        })
+        .collect();
+    Ok(mesh.with_positions(positions)?)
+}
+
 /// `p ↦ rotation · p + translation` applied to every vertex; faces and topology are kept
 /// (orientation is preserved, a rotation having determinant +1).
 pub fn rigid_transform(mesh: &TriMesh, rotation: &Rotation3<f64>, translation: &Vec3) -> Result<TriMesh, ShapeError> {
