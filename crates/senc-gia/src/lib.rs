@@ -231,7 +231,7 @@ pub struct Diagnostics {
     pub gradient_fallbacks: usize,
     /// Regions dropped because a contour of their group failed ([`VolumeRule::SmallerSide`]).
     pub groups_skipped: usize,
-    /// Re-runs on jittered positions ([`GiaWorkspace::penetration`], [`PERTURBATION`]):
+    /// Re-runs on jittered positions ([`GiaWorkspace::penetration`], [`PERTURBATIONS`]):
     /// 0 when the first run skipped nothing; `k ≤ PERTURBED_RETRIES` when the `k`-th
     /// re-run was the first to skip nothing (its result is reported); `PERTURBED_RETRIES`
     /// with `patches_skipped > 0` when none did (the unperturbed run is reported).
@@ -244,15 +244,17 @@ pub struct Diagnostics {
     pub virtual_fan_pairs: usize,
 }
 
-/// Largest displacement of a perturbed re-run of [`GiaWorkspace::penetration`], relative to
-/// the bounding box's diagonal: far below what simulated cloth resolves, and below
-/// [`winding::FLAT_THICKNESS`], so that cells made by jittering faces that coincide are
-/// still flat.
-pub const PERTURBATION: f64 = 1e-13;
+/// Largest displacements of the perturbed re-runs of [`GiaWorkspace::penetration`],
+/// relative to the bounding box's diagonal, tried in this order: far below what simulated
+/// cloth resolves, and at most [`winding::FLAT_THICKNESS`], so that cells made by jittering
+/// faces that coincide are still flat.
+pub const PERTURBATIONS: [f64; 2] = [1e-13, 1e-12];
 
-/// Perturbed re-runs of [`GiaWorkspace::penetration`] tried before the skipped patches of
-/// the unperturbed run are reported.
-pub const PERTURBED_RETRIES: usize = 6;
+/// Perturbed re-runs of [`GiaWorkspace::penetration`] per size in [`PERTURBATIONS`].
+pub const RETRIES_PER_PERTURBATION: usize = 6;
+
+/// Perturbed re-runs in all before the skipped patches of the unperturbed run are reported.
+pub const PERTURBED_RETRIES: usize = PERTURBATIONS.len() * RETRIES_PER_PERTURBATION;
 
 /// A seeded displacement in `[−1, 1)³` for vertex `v` of perturbed run `attempt`
 /// (SplitMix64 of both; the same call gives the same jitter on every machine).
@@ -362,9 +364,9 @@ impl GiaWorkspace {
     ///
     /// With the winding rule, a run that skips patches (exactly degenerate input: faces of
     /// zero area, coincident vertices, coplanar faces meeting along a crossing) is repeated
-    /// on the positions moved by a seeded jitter of at most [`PERTURBATION`] times the
-    /// bounding box's diagonal, up to [`PERTURBED_RETRIES`] times with a new jitter each
-    /// time, and the first run that skips nothing is returned
+    /// on the positions moved by a seeded jitter of at most [`PERTURBATIONS`] times the
+    /// bounding box's diagonal ([`RETRIES_PER_PERTURBATION`] times per size, the smaller
+    /// first, with a new jitter each time), and the first run that skips nothing is returned
     /// ([`Diagnostics::perturbed_retries`] says which). The penetration volume changes by at
     /// most the area times that displacement when the surface moves (the winding number
     /// changes only where the surface passes), so the answer is that of the given mesh to
@@ -380,9 +382,10 @@ impl GiaWorkspace {
                 return Ok(out);
             }
             let original = &closure.mesh().positions()[..closure.n_original()];
-            let step = PERTURBATION * closure.mesh().bounding_diagonal();
+            let diagonal = closure.mesh().bounding_diagonal();
             let mut moved = closure.clone();
             for attempt in 1..=PERTURBED_RETRIES {
+                let step = PERTURBATIONS[(attempt - 1) / RETRIES_PER_PERTURBATION] * diagonal;
                 let jittered: Vec<Vec3> =
                     original.iter().enumerate().map(|(v, p)| p + jitter(v, attempt) * step).collect();
                 moved.update(&jittered).map_err(GiaError::VirtualClosure)?;

@@ -348,7 +348,7 @@ fn equal_boxes_jittered_past_the_step_match_finite_differences() {
 /// A flat sheet closed by the fan over its boundary: the fan lies in the sheet's plane and
 /// overlaps it. Exactly flat, every crossing between the two is decided by the perturbation
 /// alone and every probe point lies on a coplanar face, so the winding numbers are
-/// unresolved and the query is re-run on jittered positions (`senc_gia::PERTURBATION`),
+/// unresolved and the query is re-run on jittered positions (`senc_gia::PERTURBATIONS`),
 /// where the cells the sheet encloses with the fan are flat. Bent out of its plane by
 /// rounding-level noise (1e-14 m) they are flat too (`winding::FLAT_THICKNESS`). Either
 /// way: volume and gradient 0, nothing skipped. Bent by more, the
