@@ -580,17 +580,21 @@ pub fn jitter(mesh: &TriMesh, rel: f64, seed: u64) -> Result<TriMesh, ShapeError
     if !(rel.is_finite() && rel >= 0.0) {
         return Err(ShapeError::InvalidParameter { name: "rel", value: rel, requirement: "must be finite and >= 0" });
     }
-    let scale = rel * mesh.bounding_diagonal();
+    let positions = offset_positions(mesh, rel * mesh.bounding_diagonal(), seed);
+    Ok(TriMesh::new(positions, mesh.faces().to_vec())?)
+}
+
+/// Each vertex of `mesh` moved by an independent uniform offset in `[-1, 1]³ · scale`
+/// (ChaCha8 seeded by `seed`).
+fn offset_positions(mesh: &TriMesh, scale: f64, seed: u64) -> Vec<Vec3> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let positions = mesh
-        .positions()
+    mesh.positions()
         .iter()
         .map(|p| {
             let d = Vec3::new(rng.random_range(-1.0..=1.0), rng.random_range(-1.0..=1.0), rng.random_range(-1.0..=1.0));
             p + d * scale
         })
-        .collect();
-    Ok(TriMesh::new(positions, mesh.faces().to_vec())?)
+        .collect()
 }
 
 /// Crumples `mesh`: each vertex moves by an independent uniform offset in `[-1, 1]³ · amp`
@@ -605,15 +609,10 @@ pub fn crumple_snapped(mesh: &TriMesh, amp: f64, grid: f64, seed: u64) -> Result
     if !(grid.is_finite() && grid > 0.0) {
         return Err(ShapeError::InvalidParameter { name: "grid", value: grid, requirement: "must be finite and > 0" });
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let positions = mesh
-        .positions()
-        .iter()
-        .map(|p| {
-            let d = Vec3::new(rng.random_range(-1.0..=1.0), rng.random_range(-1.0..=1.0), rng.random_range(-1.0..=1.0));
-            (p + d * amp).map(|c| (c / grid).round() * grid)
-        })
-        .collect();
+    let mut positions = offset_positions(mesh, amp, seed);
+    for p in &mut positions {
+        *p = p.map(|c| (c / grid).round() * grid);
+    }
     Ok(mesh.with_positions(positions)?)
 }
 
