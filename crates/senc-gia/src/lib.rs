@@ -13,6 +13,12 @@
 //! The gradient reaches every original garment vertex, through the cut nodes (exactly, or
 //! with SENC's fixed barycentric weights) and through the fan centroids.
 //!
+//! Nothing is guessed: a tangle the analysis cannot classify consistently is skipped and
+//! counted ([`Diagnostics`]). That happens only on exactly degenerate input (coincident
+//! vertices, faces of zero area, coplanar faces crossing), and then the query is re-run on
+//! positions jittered far below any length cloth resolves ([`PERTURBATIONS`]), which
+//! changes the volume only at rounding level ([`GiaWorkspace::penetration`]).
+//!
 //! # Holes left open
 //! The winding number is an integer only for a closed surface. A hole that the closure
 //! leaves open (not fanned, e.g. a collar) is closed *virtually* for this measurement:
