@@ -712,7 +712,7 @@ pub(crate) fn classify(
 }
 
 /// Relative mean thickness (of the mesh's bounding-box diagonal) below which a tangle's
-/// penetrated cells count as flat (see [`accumulate`]): about 10⁴ roundings of a coordinate.
+/// penetrated cells count as flat (see `accumulate`): about 10⁴ roundings of a coordinate.
 pub const FLAT_THICKNESS: f64 = 1e-12;
 
 /// Adds each weighted patch's volume `weight · T_P` and area to `patches`, and their
