@@ -12,7 +12,7 @@ arrangement (../shared/tools/penetration_oracle.py) and prints the answer file.
 import json, os, sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '../../shared/tools'))
 from penetration_oracle import read_obj, penetration_volume  # noqa: E402
-import igl  # noqa: E402
+from importlib.metadata import version  # noqa: E402
 
 d = sys.argv[1]
 cases = []
@@ -26,6 +26,6 @@ print(json.dumps({
                  'tube(0.5, 1.5, 8, 4, Caps::Fan) for odd seeds, amp 0.6, grid 0.25, seed), '
                  'closed by close_holes(All); the seeds from 0 on whose unperturbed winding run skips patches',
     'oracle': 'tools/snapped_answers.py: penetration_oracle.penetration_volume (libigl %s exact arrangement)'
-              % getattr(igl, '__version__', '2.6.3'),
+              % version('libigl'),
     'cases': cases,
 }, indent=1))

@@ -1,7 +1,7 @@
 //! Writes the grid-snapped crumpled meshes of `tests/fixtures/snapped_cases.json`: for seeds
 //! from 0 on, `crumple_snapped` of the icosphere (even seeds) or the capped tube (odd seeds)
 //! by 0.6 m on a 0.25 m grid, keeping those whose unperturbed run skips patches, until
-//! `N` (default 8) are found. Writes `DIR/snapped_SEED.obj` (the closed mesh) and prints
+//! `N` (default 12, the fixture's count) are found. Writes `DIR/snapped_SEED.obj` (the closed mesh) and prints
 //! one JSON line per mesh with senc's volume and diagnostics, for
 //! `tools/snapped_answers.py DIR`.
 //!
@@ -13,7 +13,7 @@ use senc_testmesh::{crumple_snapped, icosphere, tube, Caps};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let dir = std::path::PathBuf::from(args.get(1).ok_or("usage: export_snapped_cases DIR [N]")?);
-    let n: usize = args.get(2).map_or(Ok(8), |s| s.parse())?;
+    let n: usize = args.get(2).map_or(Ok(12), |s| s.parse())?;
     std::fs::create_dir_all(&dir)?;
     let bases = [icosphere(Vec3::zeros(), 1.0, 1)?, tube(0.5, 1.5, 8, 4, Caps::Fan)?];
     let mut found = 0;

@@ -238,9 +238,10 @@ pub struct Diagnostics {
     /// Regions dropped because a contour of their group failed ([`VolumeRule::SmallerSide`]).
     pub groups_skipped: usize,
     /// Re-runs on jittered positions ([`GiaWorkspace::penetration`], [`PERTURBATIONS`]):
-    /// 0 when the first run skipped nothing; `k ≤ PERTURBED_RETRIES` when the `k`-th
-    /// re-run was the first to skip nothing (its result is reported); `PERTURBED_RETRIES`
-    /// with `patches_skipped > 0` when none did (the unperturbed run is reported).
+    /// the number of re-runs made. 0 when the first run skipped nothing; with
+    /// `patches_skipped == 0` after re-runs, the last one made skipped nothing and its
+    /// result is reported; with `patches_skipped > 0`, none did (at most
+    /// [`PERTURBED_RETRIES`]) and the unperturbed run is reported.
     pub perturbed_retries: usize,
     /// Crossing face pairs that involve a virtual fan (a hole the closure leaves open, see
     /// the crate docs, "Holes left open"): the surface passes through the hole's fan, or a
@@ -389,20 +390,23 @@ impl GiaWorkspace {
             }
             let original = &closure.mesh().positions()[..closure.n_original()];
             let diagonal = closure.mesh().bounding_diagonal();
+            let mut out = out;
             let mut moved = closure.clone();
             for attempt in 1..=PERTURBED_RETRIES {
                 let step = PERTURBATIONS[(attempt - 1) / RETRIES_PER_PERTURBATION] * diagonal;
                 let jittered: Vec<Vec3> =
                     original.iter().enumerate().map(|(v, p)| p + jitter(v, attempt) * step).collect();
-                moved.update(&jittered).map_err(GiaError::VirtualClosure)?;
+                // Fails only where jittered coordinates overflow: no re-run is possible.
+                if moved.update(&jittered).is_err() {
+                    break;
+                }
+                out.diagnostics.perturbed_retries = attempt;
                 let mut retry = self.penetration_here(&moved, options)?;
                 if retry.diagnostics.patches_skipped == 0 {
                     retry.diagnostics.perturbed_retries = attempt;
                     return Ok(retry);
                 }
             }
-            let mut out = out;
-            out.diagnostics.perturbed_retries = PERTURBED_RETRIES;
             Ok(out)
         })
     }
