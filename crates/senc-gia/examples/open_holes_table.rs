@@ -23,7 +23,16 @@ fn main() {
         "patches skipped",
     ])
     .unwrap();
-    for (garment, f) in [("tshirt", 20), ("tshirt", 60), ("tshirt", 90), ("skirt", 20), ("skirt", 50), ("skirt", 90)] {
+    for (garment, f) in [
+        ("tshirt", 20),
+        ("tshirt", 60),
+        ("tshirt", 90),
+        ("skirt", 20),
+        ("skirt", 50),
+        ("skirt", 90),
+        ("pants", 90),
+        ("dress", 90),
+    ] {
         let mesh = frame(garment, f);
         let all = close_holes(&mesh, &HoleSelection::All).unwrap();
         let closed = GiaWorkspace::new(&all).penetration(&all, &GiaOptions::default()).unwrap();

@@ -216,7 +216,13 @@ fn fixture_gradient_check(name: &str) {
 /// checked against SENC's frozen-weight volume ([`fixed_weight_volume`]), which needs every
 /// hole closed.
 fn fixture_gradient_check_with(name: &str, selection: &HoleSelection, modes: &[GradientMode]) {
-    let mesh = senc_testmesh::fixture(name).unwrap();
+    gradient_check_on(name, &senc_testmesh::fixture(name).unwrap(), selection, modes, 60);
+}
+
+/// [`fixture_gradient_check_with`] on any mesh (`name` for the messages), sampling about
+/// `samples` vertices of crossing faces.
+fn gradient_check_on(name: &str, mesh: &TriMesh, selection: &HoleSelection, modes: &[GradientMode], samples: usize) {
+    let mesh = mesh.clone();
     let pen_sel = |m: &TriMesh, opts: &GiaOptions| {
         let closure = close_holes(m, selection).unwrap();
         GiaWorkspace::new(&closure).penetration(&closure, opts).unwrap()
@@ -232,7 +238,7 @@ fn fixture_gradient_check_with(name: &str, selection: &HoleSelection, modes: &[G
         .collect();
     crossing.sort_unstable();
     crossing.dedup();
-    let sample: Vec<u32> = crossing.iter().copied().step_by(crossing.len().div_ceil(60).max(1)).collect();
+    let sample: Vec<u32> = crossing.iter().copied().step_by(crossing.len().div_ceil(samples).max(1)).collect();
     for &mode in modes {
         let opts = GiaOptions { gradient: mode, ..Default::default() };
         let base = pen_sel(&mesh, &opts);
@@ -282,6 +288,18 @@ fn assert_rigid_invariant(name: &str, mesh: &TriMesh, gradient: &[Vec3]) {
 fn gradients_of_the_tangle_fixtures_match_finite_differences() {
     for name in ["tube_through_box", "nested_boxes", "elbow_fold", "crumpled_sphere", "crumpled_tube"] {
         fixture_gradient_check(name);
+    }
+}
+
+/// Simulated garment frames of garment types and a motion the other fixtures do not use
+/// (`tests/fixtures/garment_frames/`: pants with 1,574 crossing pairs, a dress with 623),
+/// every hole fanned.
+#[test]
+fn gradients_of_tangled_garment_frames_match_finite_differences() {
+    for garment in ["pants", "dress"] {
+        let mesh = senc_testmesh::garment_frame(garment, 90).unwrap();
+        let modes = [GradientMode::Exact, GradientMode::FixedBarycentric];
+        gradient_check_on(&format!("{garment} 90"), &mesh, &HoleSelection::All, &modes, 20);
     }
 }
 
