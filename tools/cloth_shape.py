@@ -14,7 +14,11 @@ frame it prints, against DIR's frame 0 (the skinned start) or against `--against
 - the length of each boundary loop (sorted by height), and for the lowest loop (a hem) its
   mean radius about its own centroid's vertical axis and the spread of that radius left
   after the first three Fourier modes around the loop (folds);
-- the share of cloth vertices within 1 cm of a body vertex.
+- the share of cloth vertices within 1 cm of a body vertex;
+- the mean offset (x, y, z) of the cloth from the reference carried along by the body:
+  each reference vertex moved as its nearest body vertex (in `body_0000.obj`) has moved
+  since frame 0, translation only (a drift of the whole garment against the body shows
+  here; rotations of body parts blur it).
 Needs numpy only.
 """
 import argparse
@@ -113,6 +117,13 @@ def near_body(cloth, body, within=0.01):
     return hits / len(cloth)
 
 
+def nearest(points, body):
+    out = []
+    for chunk in np.array_split(points, max(1, len(points) // 512)):
+        out.append(((chunk[:, None, :] - body[None, :, :]) ** 2).sum(-1).argmin(1))
+    return np.concatenate(out)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dir", type=Path)
@@ -123,6 +134,8 @@ def main():
     loops = sorted(boundary_loops(f), key=lambda l: v0[[e[0] for e in l], 1].mean())
     edges = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), 1), axis=0)
     a0, l0 = face_areas(v0, f), np.linalg.norm(v0[edges[:, 0]] - v0[edges[:, 1]], axis=1)
+    body0, _ = load(a.dir / "body_0000.obj")
+    carrier = nearest(v0, body0)
     print(f"reference: {len(f)} faces, mean edge {100 * l0.mean():.2f} cm, longest {100 * l0.max():.2f} cm")
     for frame in a.frames:
         v, f2 = load(a.dir / f"cloth_{frame:04d}.obj")
@@ -141,7 +154,9 @@ def main():
             f"x{np.median(s1):.3f} and x{np.median(s2):.3f}, {off:.0f} % of faces off by more than 10 %; "
             f"loop lengths (cm, lowest first) {lengths}; lowest loop radius {100 * radius:.1f} cm, "
             f"spread beyond 3 modes {100 * spread:.2f} cm; within 1 cm of the body "
-            f"{100 * near_body(v, body):.1f} %"
+            f"{100 * near_body(v, body):.1f} %; offset from the start carried by the body (x, y, z) "
+            + " ".join(f"{100 * c:+.1f}" for c in (v - v0 - (body[carrier] - body0[carrier])).mean(0))
+            + " cm"
         )
 
 
