@@ -109,19 +109,18 @@ def stretches(v0, v, f):
     return s[:, 0], s[:, 1], along(h), along(m)
 
 
-def near_body(cloth, body, within=0.01):
-    hits = 0
-    for chunk in np.array_split(cloth, max(1, len(cloth) // 512)):
-        d2 = ((chunk[:, None, :] - body[None, :, :]) ** 2).sum(-1).min(1)
-        hits += int((d2 < within * within).sum())
-    return hits / len(cloth)
-
-
 def nearest(points, body):
-    out = []
+    """Per point: the index of its nearest body vertex and the squared distance to it."""
+    index, d2 = [], []
     for chunk in np.array_split(points, max(1, len(points) // 512)):
-        out.append(((chunk[:, None, :] - body[None, :, :]) ** 2).sum(-1).argmin(1))
-    return np.concatenate(out)
+        d = ((chunk[:, None, :] - body[None, :, :]) ** 2).sum(-1)
+        index.append(d.argmin(1))
+        d2.append(d.min(1))
+    return np.concatenate(index), np.concatenate(d2)
+
+
+def near_body(cloth, body, within=0.01):
+    return float((nearest(cloth, body)[1] < within * within).mean())
 
 
 def main():
@@ -135,7 +134,7 @@ def main():
     edges = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), 1), axis=0)
     a0, l0 = face_areas(v0, f), np.linalg.norm(v0[edges[:, 0]] - v0[edges[:, 1]], axis=1)
     body0, _ = load(a.dir / "body_0000.obj")
-    carrier = nearest(v0, body0)
+    carrier = nearest(v0, body0)[0]
     print(f"reference: {len(f)} faces, mean edge {100 * l0.mean():.2f} cm, longest {100 * l0.max():.2f} cm")
     for frame in a.frames:
         v, f2 = load(a.dir / f"cloth_{frame:04d}.obj")

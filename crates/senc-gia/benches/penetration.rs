@@ -1,11 +1,12 @@
 //! Penetration volume + gradient with a reused workspace (BVH refit) as in training: the
 //! ≥ 10k-face garment-like benchmark mesh (sleeve pressed into a torso, holes closed by fans)
 //! and simulated garment frames (a t-shirt: 12,772 closed faces, 285 crossing pairs, 46
-//! triple points; a dress: 15,618 closed faces, 623 crossing pairs), by winding numbers (default) and by SENC's smaller-side rule, in both gradient modes; and
-//! the t-shirt frame with its neck left open (closed virtually inside the workspace). First
-//! calls come in two kinds: a fresh workspace on a topology seen before (`first_call`: the
-//! search tree built for that topology is shared) and on a topology never seen
-//! (`first_call_new_topology`: the tree is built in the call).
+//! triple points; a dress: 15,618 closed faces, 623 crossing pairs), by winding numbers
+//! (default) and by SENC's smaller-side rule, in both gradient modes; and the t-shirt frame
+//! with its neck left open (closed virtually inside the workspace). First calls come in two
+//! kinds: a fresh workspace on a topology seen before (`first_call`: the search tree built
+//! for that topology is shared) and on a topology never seen (`first_call_new_topology`:
+//! the tree is built in the call).
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use senc_geom::{close_holes, HoleSelection, TriMesh};

@@ -1,8 +1,8 @@
 //! Writes the grid-snapped crumpled meshes of `tests/fixtures/snapped_cases.json`: for seeds
 //! from 0 on, `crumple_snapped` of the icosphere (even seeds) or the capped tube (odd seeds)
 //! by 0.6 m on a 0.25 m grid, keeping those whose unperturbed run skips patches, until
-//! `N` (default 12, the fixture's count) are found. Writes `DIR/snapped_SEED.obj` (the closed mesh) and prints
-//! one JSON line per mesh with senc's volume and diagnostics, for
+//! `N` (default 12, the fixture's count) are found. Writes `DIR/snapped_SEED.obj` (the
+//! closed mesh) and prints one JSON line per mesh with senc's volume and diagnostics, for
 //! `tools/snapped_answers.py DIR`.
 //!
 //! `cargo run --release -p senc-gia --example export_snapped_cases -- DIR [N]`

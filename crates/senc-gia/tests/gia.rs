@@ -222,18 +222,18 @@ fn fixture_gradient_check_with(name: &str, selection: &HoleSelection, modes: &[G
 /// [`fixture_gradient_check_with`] on any mesh (`name` for the messages), sampling about
 /// `samples` vertices of crossing faces.
 fn gradient_check_on(name: &str, mesh: &TriMesh, selection: &HoleSelection, modes: &[GradientMode], samples: usize) {
-    let mesh = mesh.clone();
     let pen_sel = |m: &TriMesh, opts: &GiaOptions| {
         let closure = close_holes(m, selection).unwrap();
         GiaWorkspace::new(&closure).penetration(&closure, opts).unwrap()
     };
-    let inter = senc_geom::intersect::self_intersections(close_holes(&mesh, &HoleSelection::All).unwrap().mesh());
+    let closed = close_holes(mesh, &HoleSelection::All).unwrap();
+    let inter = senc_geom::intersect::self_intersections(closed.mesh());
     let n = mesh.n_vertices() as u32;
     let mut crossing: Vec<u32> = inter
         .segments
         .iter()
         .flat_map(|s| s.faces)
-        .flat_map(|f| close_holes(&mesh, &HoleSelection::All).unwrap().mesh().faces()[f as usize])
+        .flat_map(|f| closed.mesh().faces()[f as usize])
         .filter(|&v| v < n)
         .collect();
     crossing.sort_unstable();
@@ -241,7 +241,7 @@ fn gradient_check_on(name: &str, mesh: &TriMesh, selection: &HoleSelection, mode
     let sample: Vec<u32> = crossing.iter().copied().step_by(crossing.len().div_ceil(samples).max(1)).collect();
     for &mode in modes {
         let opts = GiaOptions { gradient: mode, ..Default::default() };
-        let base = pen_sel(&mesh, &opts);
+        let base = pen_sel(mesh, &opts);
         assert!(base.volume > 0.0 && base.diagnostics.patches_skipped == 0, "{name}: {:?}", base.diagnostics);
         let scale = base.gradient.iter().map(|g| g.norm()).fold(0.0, f64::max);
         let h = 1e-7;
@@ -254,7 +254,7 @@ fn gradient_check_on(name: &str, mesh: &TriMesh, selection: &HoleSelection, mode
                     let moved = mesh.with_positions(p).unwrap();
                     match mode {
                         GradientMode::Exact => pen_sel(&moved, &opts).volume,
-                        GradientMode::FixedBarycentric => fixed_weight_volume(&mesh, &moved),
+                        GradientMode::FixedBarycentric => fixed_weight_volume(mesh, &moved),
                     }
                 };
                 let (hi, lo) = (eval(h), eval(-h));
@@ -266,7 +266,7 @@ fn gradient_check_on(name: &str, mesh: &TriMesh, selection: &HoleSelection, mode
             }
         }
         assert!(worst <= 1e-5 * scale, "{name} {mode:?}: worst error {worst} vs gradient scale {scale}");
-        assert_rigid_invariant(name, &mesh, &base.gradient);
+        assert_rigid_invariant(name, mesh, &base.gradient);
     }
 }
 
