@@ -3,7 +3,7 @@
 use nalgebra::{Rotation3, Vector3};
 use senc_geom::{close_holes, HoleSelection, TriMesh, Vec3};
 use senc_gia::{GiaOptions, GiaWorkspace, GradientMode, Gradients, Penetration, SizeRule, VolumeRule};
-use senc_testmesh::{grid_box, icosphere, jitter, merge, rigid_transform};
+use senc_testmesh::{grid_box, icosphere, jitter, merge, rigid_transform, turned_over};
 
 fn pen(mesh: &TriMesh, opts: &GiaOptions) -> Penetration {
     let closure = close_holes(mesh, &HoleSelection::All).unwrap();
@@ -185,16 +185,15 @@ fn gradient_has_no_net_force_or_torque() {
     }
 }
 
-/// `mesh` with x and y swapped (the unit cube maps onto itself with its faces' diagonals
-/// turned) and the faces reversed so that normals stay outward.
-fn mirrored(mesh: &TriMesh) -> TriMesh {
-    let positions = mesh.positions().iter().map(|p| Vec3::new(p.y, p.x, p.z)).collect();
-    TriMesh::new(positions, mesh.faces().iter().map(|&[a, b, c]| [a, c, b]).collect()).unwrap()
+/// `mesh` with every face turned over: winding −1 inside.
+fn inverted(mesh: &TriMesh) -> TriMesh {
+    turned_over(mesh).unwrap()
 }
 
-/// `mesh` with every face reversed: winding −1 inside.
-fn inverted(mesh: &TriMesh) -> TriMesh {
-    TriMesh::new(mesh.positions().to_vec(), mesh.faces().iter().map(|&[a, b, c]| [a, c, b]).collect()).unwrap()
+/// `mesh` with x and y swapped (the unit cube maps onto itself with its faces' diagonals
+/// turned), turned over so that its normals stay outward.
+fn mirrored(mesh: &TriMesh) -> TriMesh {
+    inverted(&mesh.with_positions(mesh.positions().iter().map(|p| Vec3::new(p.y, p.x, p.z)).collect()).unwrap())
 }
 
 /// Exactly degenerate box arrangements whose volume is known by hand: surfaces that

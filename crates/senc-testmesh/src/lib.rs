@@ -623,6 +623,12 @@ pub fn rigid_transform(mesh: &TriMesh, rotation: &Rotation3<f64>, translation: &
     Ok(mesh.with_positions(positions)?)
 }
 
+/// The same mesh with every face turned over (normals reversed, winding −1 inside a closed
+/// surface that had +1).
+pub fn turned_over(mesh: &TriMesh) -> Result<TriMesh, ShapeError> {
+    Ok(TriMesh::new(mesh.positions().to_vec(), mesh.faces().iter().map(|&[a, b, c]| [a, c, b]).collect())?)
+}
+
 /// Disjoint union: `a`'s vertices and faces first, then `b`'s with indices shifted by
 /// `a.n_vertices()`. Shared positions are not welded.
 pub fn merge(a: &TriMesh, b: &TriMesh) -> Result<TriMesh, ShapeError> {

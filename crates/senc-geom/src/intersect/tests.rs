@@ -463,18 +463,13 @@ fn boundary_segment_tests_separate_only_with_margin() {
     assert!(!segments_apart(&seg([0, 1], [0.0, 0.0], [1.0, 0.0]), &seg([0, 1], [0.0, 0.0], [1.0, 0.0]), tol));
 }
 
-/// The same mesh with every face turned over (outward normals point inward).
-fn flipped(m: &TriMesh) -> TriMesh {
-    TriMesh::new(m.positions().to_vec(), m.faces().iter().map(|&[a, b, c]| [a, c, b]).collect()).unwrap()
-}
-
 #[test]
 fn ray_counts_are_winding_numbers_in_every_direction() {
     let v = |x: f64, y: f64, z: f64| Vec3::new(x, y, z);
     let big = shapes::icosphere(v(0.0, 0.0, 0.0), 1.0, 2).unwrap();
     let small = shapes::icosphere(v(0.1, 0.0, 0.0), 0.4, 2).unwrap();
     let nested = shapes::merge(&big, &small).unwrap();
-    let inverted = flipped(&big);
+    let inverted = shapes::turned_over(&big).unwrap();
     // (mesh, point, winding number there)
     let cases = [
         (&big, v(0.0, 0.0, 0.0), 1),
